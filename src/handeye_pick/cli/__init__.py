@@ -1,0 +1,68 @@
+"""Command-line entry point: ``handeye-pick <command> ...``.
+
+Each command lives in its own module that adds a sub-parser with ``register(subparsers)`` and
+sets ``run=function(args) -> int``. This module turns typed errors into one-line messages and
+exit statuses, so no command prints a traceback for a failure it knows about.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+from collections.abc import Sequence
+
+from handeye_pick.errors import HandEyePickError, InputError, RobotError, SafetyRefusal
+
+EXIT_OK = 0
+EXIT_INTERNAL = 1
+EXIT_BAD_INPUT = 2
+EXIT_REFUSED = 3
+EXIT_ROBOT_FAULT = 4
+EXIT_INTERRUPTED = 130
+
+log = logging.getLogger("handeye_pick")
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse that reports usage errors with our exit status 2 and one line."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        raise InputError(f"{self.prog}: {message}")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from handeye_pick.cli import transform
+
+    parser = _Parser(
+        prog="handeye-pick",
+        description="Camera-guided picks on Universal Robots arms. Frames are named T_a_b "
+        "(pose of b in a); robot poses are UR vectors in m and rad; camera points are mm.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    for module in (transform,):
+        module.register(sub)
+    return parser
+
+
+def exit_status(exc: HandEyePickError) -> int:
+    """The exit status for a typed error (2 input, 3 refused, 4 robot)."""
+    if isinstance(exc, SafetyRefusal):
+        return EXIT_REFUSED
+    if isinstance(exc, RobotError):
+        return EXIT_ROBOT_FAULT
+    return EXIT_BAD_INPUT
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run one command; return its exit status (never raises for a known failure)."""
+    try:
+        args = build_parser().parse_args(argv)
+        status: int = args.run(args)
+        return status
+    except HandEyePickError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return exit_status(exc)
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
