@@ -3,8 +3,8 @@
 One root, one subclass per kind of failure. The CLI maps each kind to one exit status, so the
 class a function raises is part of its contract:
 
-- ``InputError`` (exit 2): a file, a config key or an argument is wrong; nothing was sent to a robot.
-- ``SafetyRefusal`` (exit 3): a pre-flight check refused the plan or the cell is not ready; nothing moved.
+- ``InputError`` (exit 2): a file, a config key or an argument is wrong; nothing was sent.
+- ``SafetyRefusal`` (exit 3): a pre-flight check refused, or the cell is not ready; nothing moved.
 - ``RobotError`` (exit 4): the robot or the link to it failed, possibly during motion.
 
 Every message names the operation, what was expected and what was found.

@@ -113,7 +113,7 @@ def compose(*Ts: Transform) -> Transform:
 
 def scale_translation(T: Transform, metres_per_unit: float) -> Transform:
     """Return ``T`` with its translation multiplied by ``metres_per_unit`` (e.g. mm -> m: 1e-3)."""
-    out = T.copy()
+    out: Transform = T.copy()
     out[:3, 3] *= metres_per_unit
     return out
 
@@ -131,8 +131,8 @@ def rotation_angle_between(R1: ArrayLike, R2: ArrayLike) -> float:
     Rrel = np.asarray(R1, dtype=np.float64).T @ np.asarray(R2, dtype=np.float64)
     cos = (np.trace(Rrel) - 1.0) / 2.0
     # arccos loses precision near 0; the sine from the skew part keeps small angles exact.
-    sin = np.linalg.norm([Rrel[2, 1] - Rrel[1, 2], Rrel[0, 2] - Rrel[2, 0], Rrel[1, 0] - Rrel[0, 1]])
-    return float(np.arctan2(sin / 2.0, cos))
+    skew = np.array([Rrel[2, 1] - Rrel[1, 2], Rrel[0, 2] - Rrel[2, 0], Rrel[1, 0] - Rrel[0, 1]])
+    return float(np.arctan2(np.linalg.norm(skew) / 2.0, cos))
 
 
 # --- UR pose vectors ---------------------------------------------------------------------------
@@ -212,8 +212,8 @@ def check_euler_sequence(sequence: str) -> str:
     )
     if not ok:
         raise TransformError(
-            f"Euler sequence {sequence!r} is not valid: use three axes from x, y, z, all lower case "
-            "(extrinsic, e.g. 'xyz') or all upper case (intrinsic, e.g. 'ZYX')"
+            f"Euler sequence {sequence!r} is not valid: use three axes from x, y, z, all lower "
+            "case (extrinsic, e.g. 'xyz') or all upper case (intrinsic, e.g. 'ZYX')"
         )
     return sequence
 

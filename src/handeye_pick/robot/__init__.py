@@ -1,0 +1,1 @@
+"""The robot boundary: a small Protocol (port.py) and its ur_rtde adapter."""
