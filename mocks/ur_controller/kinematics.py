@@ -1,0 +1,379 @@
+"""Kinematics of UR e-Series arms for the simulated controller (nominal DH, analytic IK).
+
+Self-contained on purpose (numpy + scipy only, never ``handeye_pick``): the simulator must not
+share pose maths with the code it is testing, or a shared bug would cancel out.
+
+Frames and units:
+
+- ``base`` is the controller's base frame as the pendant shows it: frame 0 of UR's standard DH
+  table, z up along joint 1. ``flange`` is the tool flange (DH frame 6, no TCP offset). ``tcp`` is
+  the flange moved by the controller's TCP offset.
+- ``T_a_b`` is the pose of ``b`` in ``a`` (``p_a = T_a_b @ p_b``), float64 4x4, metres.
+- A UR pose vector is ``[x, y, z, rx, ry, rz]``: metres and a rotation vector in radians.
+- Joint vectors ``q`` are 6 angles in radians, base joint first.
+
+A real controller uses per-robot calibrated kinematics; these nominal ones differ by millimetres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.spatial.transform import Rotation
+
+Matrix = NDArray[np.float64]
+"""A float64 array: a 4x4 rigid transform or a joint/pose vector, as each signature says."""
+
+IK_TOLERANCE = 1e-9
+"""Largest accepted |forward(q) - T| entry (metres for position, unitless for rotation)."""
+
+SINGULAR_WRIST_TOLERANCE = 1e-12
+"""|sin q5| below this makes q4 and q6 indistinguishable: q6 is then chosen by the caller."""
+
+_ROTATION_TOLERANCE = 1e-6
+_FULL_TURN = 2.0 * math.pi
+_E_SERIES_LIMIT_RAD = 2.0 * math.pi
+_UR_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
+
+
+@dataclass(frozen=True)
+class URModel:
+    """Nominal standard-DH kinematics of one UR arm (metres, radians).
+
+    ``d``, ``a`` and ``alpha`` are the six DH rows as published by Universal Robots;
+    the analytic IK relies on their UR shape (a1 = a4 = a5 = a6 = 0, d2 = d3 = 0, alpha as in
+    ``_UR_ALPHA``).
+    """
+
+    name: str
+    d: tuple[float, float, float, float, float, float]
+    a: tuple[float, float, float, float, float, float]
+    alpha: tuple[float, float, float, float, float, float]
+    reach_m: float
+    joint_min_rad: tuple[float, float, float, float, float, float]
+    joint_max_rad: tuple[float, float, float, float, float, float]
+
+
+def _e_series(
+    name: str, d1: float, a2: float, a3: float, d4: float, d5: float, d6: float, reach_m: float
+) -> URModel:
+    lo = -_E_SERIES_LIMIT_RAD
+    hi = _E_SERIES_LIMIT_RAD
+    return URModel(
+        name=name,
+        d=(d1, 0.0, 0.0, d4, d5, d6),
+        a=(0.0, a2, a3, 0.0, 0.0, 0.0),
+        alpha=_UR_ALPHA,
+        reach_m=reach_m,
+        joint_min_rad=(lo, lo, lo, lo, lo, lo),
+        joint_max_rad=(hi, hi, hi, hi, hi, hi),
+    )
+
+
+MODELS: dict[str, URModel] = {
+    "ur3e": _e_series("ur3e", 0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921, 0.50),
+    "ur5e": _e_series("ur5e", 0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996, 0.85),
+    "ur10e": _e_series("ur10e", 0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655, 1.30),
+    "ur16e": _e_series("ur16e", 0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655, 0.90),
+}
+"""Nominal e-Series models by lower-case name."""
+
+
+# --- input checks -------------------------------------------------------------------------------
+
+
+def _vector(values: ArrayLike, length: int, operation: str, what: str) -> Matrix:
+    arr = np.asarray(values, dtype=np.float64)
+    if arr.shape != (length,):
+        raise ValueError(f"{operation}: {what} must have shape ({length},), got {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{operation}: {what} has non-finite entries: {arr.tolist()}")
+    return arr
+
+
+def _transform(T: ArrayLike, operation: str, what: str) -> Matrix:
+    arr = np.asarray(T, dtype=np.float64)
+    if arr.shape != (4, 4):
+        raise ValueError(f"{operation}: {what} must be 4x4, got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{operation}: {what} has non-finite entries")
+    if not np.array_equal(arr[3], [0.0, 0.0, 0.0, 1.0]):
+        raise ValueError(f"{operation}: {what} bottom row must be [0, 0, 0, 1], got {arr[3]}")
+    R = arr[:3, :3]
+    ortho_err = float(np.max(np.abs(R.T @ R - np.eye(3))))
+    if ortho_err > _ROTATION_TOLERANCE or np.linalg.det(R) < 0.0:
+        raise ValueError(
+            f"{operation}: {what} rotation is not a proper rotation "
+            f"(max |R^T R - I| = {ortho_err:.1e}, det = {np.linalg.det(R):.6f})"
+        )
+    return arr
+
+
+# --- pose vectors and transforms ----------------------------------------------------------------
+
+
+def pose_to_matrix(pose: ArrayLike) -> Matrix:
+    """UR pose ``[x, y, z, rx, ry, rz]`` (m, rotation vector rad) -> 4x4 transform."""
+    p = _vector(pose, 6, "pose_to_matrix", "pose")
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(p[3:]).as_matrix()
+    T[:3, 3] = p[:3]
+    return T
+
+
+def matrix_to_pose(T: ArrayLike) -> Matrix:
+    """4x4 transform -> UR pose ``[x, y, z, rx, ry, rz]`` (m, rad; rotation angle in [0, pi])."""
+    arr = _transform(T, "matrix_to_pose", "T")
+    rotvec = Rotation.from_matrix(arr[:3, :3]).as_rotvec()
+    return np.concatenate([arr[:3, 3], rotvec])
+
+
+def _invert(T: Matrix) -> Matrix:
+    """Closed-form inverse of a rigid transform."""
+    inv = np.eye(4)
+    inv[:3, :3] = T[:3, :3].T
+    inv[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    return inv
+
+
+def tcp_from_flange(T_base_flange: ArrayLike, tcp_offset_pose: ArrayLike) -> Matrix:
+    """``T_base_tcp`` from the flange pose and the TCP offset (``T_flange_tcp`` as a UR pose)."""
+    T_bf = _transform(T_base_flange, "tcp_from_flange", "T_base_flange")
+    return T_bf @ pose_to_matrix(tcp_offset_pose)
+
+
+def flange_from_tcp(T_base_tcp: ArrayLike, tcp_offset_pose: ArrayLike) -> Matrix:
+    """``T_base_flange`` from the TCP pose and the TCP offset (``T_flange_tcp`` as a UR pose)."""
+    T_bt = _transform(T_base_tcp, "flange_from_tcp", "T_base_tcp")
+    return T_bt @ _invert(pose_to_matrix(tcp_offset_pose))
+
+
+# --- forward and inverse kinematics -------------------------------------------------------------
+
+
+def _dh(theta: float, d: float, a: float, alpha: float) -> Matrix:
+    """Standard DH link transform Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
+    ct, st = math.cos(theta), math.sin(theta)
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    return np.array(
+        [
+            [ct, -st * ca, st * sa, a * ct],
+            [st, ct * ca, -ct * sa, a * st],
+            [0.0, sa, ca, d],
+            [0.0, 0.0, 0.0, 1.0],
+        ]
+    )
+
+
+def forward(model: URModel, q: ArrayLike) -> Matrix:
+    """``T_base_flange`` (4x4, m) for joint angles ``q`` (6, rad)."""
+    return _chain(model, _vector(q, 6, "forward", "q"))
+
+
+def _chain(model: URModel, q: Matrix) -> Matrix:
+    T = _dh(float(q[0]), model.d[0], model.a[0], model.alpha[0])
+    for i in range(1, 6):
+        T = T @ _dh(float(q[i]), model.d[i], model.a[i], model.alpha[i])
+    return T
+
+
+def _wrap_pi(angles: Matrix) -> Matrix:
+    """Angles in (-pi, pi]."""
+    return math.pi - np.remainder(math.pi - angles, _FULL_TURN)
+
+
+def _branch_sqrt(value: float, tolerance: float) -> float | None:
+    """sqrt(value), treating -tolerance < value < 0 as round-off; None when truly negative."""
+    if value < -tolerance:
+        return None
+    return math.sqrt(max(value, 0.0))
+
+
+def inverse_all(
+    model: URModel, T_base_flange: ArrayLike, q6_if_singular: float = 0.0
+) -> list[Matrix]:
+    """All joint solutions (up to 8, each in (-pi, pi] per joint) reaching ``T_base_flange``.
+
+    Closed form for the UR geometry (three parallel middle axes, offset wrist). Each solution is
+    checked with ``forward`` to ``IK_TOLERANCE``; an unreachable pose gives an empty list. At a
+    wrist singularity (sin q5 = 0) only q4 + q6 is determined: q6 is set to ``q6_if_singular``.
+    Joint limits are not applied here (see ``inverse``).
+    """
+    T = _transform(T_base_flange, "inverse_all", "T_base_flange")
+    d1, d4, d5, d6 = model.d[0], model.d[3], model.d[4], model.d[5]
+    a2, a3 = model.a[1], model.a[2]
+    R = T[:3, :3]
+
+    # Joint 1: the wrist centre p05 lies at distance d4 from the base plane containing z1.
+    p05 = T[:3, 3] - d6 * R[:, 2]
+    r_sq = float(p05[0] ** 2 + p05[1] ** 2)
+    along = _branch_sqrt(r_sq - d4 * d4, 1e-12)
+    if along is None:
+        return []
+    phi = math.atan2(float(p05[1]), float(p05[0]))
+    q1_options = [phi + math.atan2(d4, along), phi + math.atan2(d4, -along)]
+
+    solutions: list[Matrix] = []
+    for q1 in q1_options:
+        # Joint 1's axis z1 expressed in the flange frame is [s5 c6, -s5 s6, c5].
+        z1_in_base = np.array([math.sin(q1), -math.cos(q1), 0.0])
+        z1_in_flange = R.T @ z1_in_base
+        c5 = float(z1_in_flange[2])
+        s5_abs = math.hypot(float(z1_in_flange[0]), float(z1_in_flange[1]))
+        for wrist_sign in (1.0, -1.0):
+            q5 = math.atan2(wrist_sign * s5_abs, c5)
+            if s5_abs < SINGULAR_WRIST_TOLERANCE:
+                q6 = q6_if_singular
+            else:
+                q6 = math.atan2(
+                    -wrist_sign * float(z1_in_flange[1]), wrist_sign * float(z1_in_flange[0])
+                )
+            T_01 = _dh(q1, d1, 0.0, model.alpha[0])
+            T_45 = _dh(q5, d5, 0.0, model.alpha[4])
+            T_56 = _dh(q6, d6, 0.0, model.alpha[5])
+            T_14 = _invert(T_01) @ T @ _invert(T_45 @ T_56)
+            # Joints 2-4 form a planar arm in the x-y plane of frame 1.
+            x, y = float(T_14[0, 3]), float(T_14[1, 3])
+            c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
+            s3_abs = _branch_sqrt(1.0 - c3 * c3, 1e-9)
+            if s3_abs is None:
+                continue
+            c3 = max(-1.0, min(1.0, c3))
+            q234 = math.atan2(float(T_14[1, 0]), float(T_14[0, 0]))
+            for elbow_sign in (1.0, -1.0):
+                s3 = elbow_sign * s3_abs
+                q3 = math.atan2(s3, c3)
+                q2 = math.atan2(y, x) - math.atan2(a3 * s3, a2 + a3 * c3)
+                q4 = q234 - q2 - q3
+                q = _wrap_pi(np.array([q1, q2, q3, q4, q5, q6]))
+                if _matches(model, q, T) and not _contains(solutions, q):
+                    solutions.append(q)
+    return solutions
+
+
+def _matches(model: URModel, q: Matrix, T: Matrix) -> bool:
+    return float(np.max(np.abs(_chain(model, q)[:3] - T[:3]))) <= IK_TOLERANCE
+
+
+def _contains(solutions: list[Matrix], q: Matrix) -> bool:
+    if not solutions:
+        return False
+    differences = _wrap_pi(np.stack(solutions) - q)
+    return bool(np.any(np.max(np.abs(differences), axis=1) <= IK_TOLERANCE))
+
+
+def _nearest_turn(model: URModel, q: Matrix, q_near: Matrix) -> Matrix | None:
+    """``q`` with each joint shifted by whole turns to be nearest ``q_near`` within limits."""
+    turns = np.round((q_near - q) / _FULL_TURN) + np.array([[-1.0], [0.0], [1.0]])
+    candidates = q + turns * _FULL_TURN  # (3, 6): one row per turn count
+    allowed = (candidates >= np.asarray(model.joint_min_rad)) & (
+        candidates <= np.asarray(model.joint_max_rad)
+    )
+    if not np.all(np.any(allowed, axis=0)):
+        return None
+    gaps = np.where(allowed, np.abs(candidates - q_near), math.inf)
+    nearest: Matrix = candidates[np.argmin(gaps, axis=0), np.arange(6)]
+    return nearest
+
+
+def inverse(model: URModel, T_base_flange: ArrayLike, q_near: ArrayLike) -> Matrix | None:
+    """The joint solution reaching ``T_base_flange`` nearest ``q_near`` (Euclidean, rad).
+
+    Each joint is moved by whole turns to be nearest ``q_near`` while staying within the model's
+    limits. At a wrist singularity q6 keeps ``q_near[5]``. None when the pose is unreachable.
+    """
+    near = _vector(q_near, 6, "inverse", "q_near")
+    best: Matrix | None = None
+    best_distance = math.inf
+    for q in inverse_all(model, T_base_flange, q6_if_singular=float(near[5])):
+        candidate = _nearest_turn(model, q, near)
+        if candidate is None:
+            continue
+        distance = float(np.linalg.norm(candidate - near))
+        if distance < best_distance:
+            best, best_distance = candidate, distance
+    return best
+
+
+def within_limits(model: URModel, q: ArrayLike) -> bool:
+    """True when every joint of ``q`` (rad) is within the model's limits (inclusive)."""
+    joints = _vector(q, 6, "within_limits", "q")
+    return bool(
+        np.all(joints >= np.asarray(model.joint_min_rad))
+        and np.all(joints <= np.asarray(model.joint_max_rad))
+    )
+
+
+def reachable(model: URModel, T_base_flange: ArrayLike) -> bool:
+    """True when some joint solution within limits reaches ``T_base_flange``."""
+    return any(_nearest_turn(model, q, q) is not None for q in inverse_all(model, T_base_flange))
+
+
+# --- motion profile helpers ---------------------------------------------------------------------
+
+
+def interpolate_pose(T0: ArrayLike, T1: ArrayLike, s: float) -> Matrix:
+    """Pose a fraction ``s`` in [0, 1] of the way from ``T0`` to ``T1`` (same parent frame).
+
+    Position moves on the straight line, orientation by slerp (shortest rotation).
+    """
+    A = _transform(T0, "interpolate_pose", "T0")
+    B = _transform(T1, "interpolate_pose", "T1")
+    if not 0.0 <= s <= 1.0:
+        raise ValueError(f"interpolate_pose: fraction s must be in [0, 1], got {s}")
+    R0 = Rotation.from_matrix(A[:3, :3])
+    relative = R0.inv() * Rotation.from_matrix(B[:3, :3])
+    T = np.eye(4)
+    T[:3, :3] = (R0 * Rotation.from_rotvec(s * relative.as_rotvec())).as_matrix()
+    T[:3, 3] = (1.0 - s) * A[:3, 3] + s * B[:3, 3]
+    return T
+
+
+def _check_profile(distance: float, v_max: float, a_max: float, operation: str) -> None:
+    if not (math.isfinite(distance) and distance >= 0.0):
+        raise ValueError(f"{operation}: distance must be finite and >= 0, got {distance}")
+    if not (math.isfinite(v_max) and v_max > 0.0):
+        raise ValueError(f"{operation}: v_max must be finite and > 0, got {v_max}")
+    if not (math.isfinite(a_max) and a_max > 0.0):
+        raise ValueError(f"{operation}: a_max must be finite and > 0, got {a_max}")
+
+
+def _peak_speed(distance: float, v_max: float, a_max: float) -> float:
+    """v_max, or the lower peak of a triangular profile when the move is too short to reach it."""
+    return min(v_max, math.sqrt(distance * a_max))
+
+
+def trapezoid(distance: float, v_max: float, a_max: float) -> float:
+    """Duration (s) of a rest-to-rest move over ``distance`` with speed and acceleration caps.
+
+    Units are any consistent set (m, m/s, m/s^2 or rad, rad/s, rad/s^2). Triangular profile
+    (duration 2 sqrt(distance / a_max)) when ``distance < v_max**2 / a_max``.
+    """
+    _check_profile(distance, v_max, a_max, "trapezoid")
+    v_peak = _peak_speed(distance, v_max, a_max)
+    if v_peak == 0.0:
+        return 0.0
+    return distance / v_peak + v_peak / a_max
+
+
+def trapezoid_fraction(t: float, distance: float, v_max: float, a_max: float) -> float:
+    """Fraction in [0, 1] of ``distance`` covered at time ``t`` (s) of the ``trapezoid`` move."""
+    _check_profile(distance, v_max, a_max, "trapezoid_fraction")
+    duration = trapezoid(distance, v_max, a_max)
+    if t >= duration:
+        return 1.0
+    if t <= 0.0:
+        return 0.0
+    v_peak = _peak_speed(distance, v_max, a_max)
+    t_ramp = v_peak / a_max
+    if t < t_ramp:
+        covered = 0.5 * a_max * t * t
+    elif t <= duration - t_ramp:
+        covered = 0.5 * v_peak * t_ramp + v_peak * (t - t_ramp)
+    else:
+        remaining = duration - t
+        covered = distance - 0.5 * a_max * remaining * remaining
+    return min(1.0, max(0.0, covered / distance))
