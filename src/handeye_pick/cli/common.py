@@ -1,0 +1,190 @@
+"""Command-line pieces shared by the commands that turn camera data into robot-base data.
+
+Each ``add_*_args`` adds one group of flags; the matching ``*_from_args`` reads them back into
+validated values in the package's units (metres inside, millimetres for camera points). Commands
+call these instead of defining their own flags, so ``--calibration`` means the same everywhere.
+"""
+
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import NDArray
+
+from handeye_pick.calibration import (
+    HandEyeCalibration,
+    HandEyeMode,
+    load_hand_eye,
+    read_robot_pose_file,
+)
+from handeye_pick.errors import InputError
+from handeye_pick.geometry import Transform, ur_pose_to_matrix
+
+UNITS = ("mm", "m")
+
+
+def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True) -> None:
+    """Add ``--mode``, ``--calibration``, ``--calibration-units`` and ``--invert``.
+
+    With ``with_mode=False`` the command supplies the mode itself (``hand_eye_from_args(args,
+    mode)``), e.g. from the cell configuration.
+    """
+    group = parser.add_argument_group("hand-eye calibration")
+    if with_mode:
+        group.add_argument(
+            "--mode",
+            required=True,
+            choices=[m.value for m in HandEyeMode],
+            help="eye-in-hand: camera on the flange, the file holds T_flange_cam; "
+            "eye-to-hand: camera fixed in the cell, the file holds T_base_cam",
+        )
+    group.add_argument(
+        "--calibration",
+        required=True,
+        type=Path,
+        metavar="FILE",
+        help="hand-eye result: Zivid YAML, legacy OpenCV YAML (%%YAML:1.0) or a plain "
+        "YAML/JSON 4x4 (list, or {matrix, units})",
+    )
+    group.add_argument(
+        "--calibration-units",
+        choices=UNITS,
+        default="mm",
+        help="translation unit of the calibration file (default: mm, Zivid's unit)",
+    )
+    group.add_argument(
+        "--invert",
+        action="store_true",
+        help="the file holds the inverse (T_cam_flange or T_cam_base); invert it on load. "
+        "Nothing is ever inverted without this flag",
+    )
+
+
+def add_robot_pose_args(parser: argparse.ArgumentParser) -> None:
+    """Add ``--robot-pose FILE | --robot-pose-ur X Y Z RX RY RZ`` and ``--robot-pose-units``.
+
+    Both give ``T_base_flange``, the flange pose in the robot base frame at capture time.
+    """
+    group = parser.add_argument_group(
+        "robot pose at capture time (eye-in-hand only): T_base_flange, the flange pose in the "
+        "robot base frame"
+    )
+    choice = group.add_mutually_exclusive_group()
+    choice.add_argument(
+        "--robot-pose",
+        type=Path,
+        metavar="FILE",
+        help="4x4 flange pose file like Zivid's RobotTransform.yaml (same formats as "
+        "--calibration)",
+    )
+    choice.add_argument(
+        "--robot-pose-ur",
+        nargs=6,
+        type=float,
+        metavar=("X", "Y", "Z", "RX", "RY", "RZ"),
+        help="flange pose as a UR pose vector: metres and a rotation vector in radians, as the "
+        "pendant shows with the TCP offset set to zero",
+    )
+    group.add_argument(
+        "--robot-pose-units",
+        choices=UNITS,
+        default="mm",
+        help="translation unit of the --robot-pose file (default: mm, Zivid's unit)",
+    )
+
+
+def add_camera_point_args(parser: argparse.ArgumentParser, required: bool = True) -> None:
+    """Add ``--xyz X Y Z`` (camera frame, mm) or ``--cloud FILE --pixel COL ROW``."""
+    group = parser.add_argument_group("point in the camera frame (mm)")
+    choice = group.add_mutually_exclusive_group(required=required)
+    choice.add_argument(
+        "--xyz",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="point in the camera frame, mm",
+    )
+    choice.add_argument(
+        "--cloud",
+        type=Path,
+        metavar="FILE",
+        help="organized point cloud (.npy or .ply, camera frame, mm) to pick the point from; "
+        "needs --pixel",
+    )
+    group.add_argument(
+        "--pixel",
+        nargs=2,
+        type=int,
+        metavar=("COL", "ROW"),
+        help="image coordinates of the point in --cloud: column (x) then row (y), from 0",
+    )
+
+
+def hand_eye_from_args(
+    args: argparse.Namespace, mode: HandEyeMode | None = None
+) -> HandEyeCalibration:
+    """Load the calibration named by the flags; ``mode`` overrides (or replaces) ``--mode``."""
+    chosen = mode if mode is not None else HandEyeMode(args.mode)
+    return load_hand_eye(args.calibration, chosen, units=args.calibration_units, invert=args.invert)
+
+
+def robot_pose_from_args(args: argparse.Namespace) -> Transform | None:
+    """``T_base_flange`` in metres from ``--robot-pose`` or ``--robot-pose-ur``; None if neither."""
+    if args.robot_pose is not None:
+        return read_robot_pose_file(args.robot_pose, units=args.robot_pose_units)
+    if args.robot_pose_ur is not None:
+        return ur_pose_to_matrix(args.robot_pose_ur)
+    return None
+
+
+def camera_point_mm_from_args(args: argparse.Namespace) -> NDArray[np.float64] | None:
+    """The camera-frame point in mm from ``--xyz`` or ``--cloud``/``--pixel``; None if neither."""
+    if args.cloud is None:
+        if args.pixel is not None:
+            raise InputError("--pixel picks a point from --cloud, but no --cloud was given")
+        if args.xyz is None:
+            return None
+        point = np.array(args.xyz, dtype=np.float64)
+        if not np.all(np.isfinite(point)):
+            raise InputError(f"--xyz must be finite numbers (mm), got {args.xyz}")
+        return point
+    if args.pixel is None:
+        raise InputError(f"--cloud {args.cloud} needs --pixel COL ROW to choose the point")
+    from handeye_pick.cloud import pick_point
+    from handeye_pick.cloudio import read_cloud  # type: ignore[import-not-found]  # helper C, landing
+
+    col, row = args.pixel
+    return pick_point(read_cloud(args.cloud).xyz, col, row)
+
+
+@dataclass(frozen=True, eq=False)
+class CameraChain:
+    """The camera-to-base chain a command resolved from its flags (all metres)."""
+
+    calibration: HandEyeCalibration
+    T_base_flange: Transform | None  # flange pose at capture time; None for eye-to-hand
+    T_base_cam: Transform  # camera pose in the robot base frame
+
+
+def camera_chain_from_args(args: argparse.Namespace) -> CameraChain:
+    """Load calibration and robot pose and build ``T_base_cam``.
+
+    Eye-in-hand needs a robot pose; eye-to-hand refuses one, because a robot pose given with a
+    fixed camera usually means the wrong ``--mode``.
+    """
+    calibration = hand_eye_from_args(args)
+    T_base_flange = robot_pose_from_args(args)
+    if calibration.mode is HandEyeMode.EYE_IN_HAND and T_base_flange is None:
+        raise InputError(
+            "--mode eye-in-hand needs the flange pose at capture time: give --robot-pose FILE "
+            "or --robot-pose-ur X Y Z RX RY RZ"
+        )
+    if calibration.mode is HandEyeMode.EYE_TO_HAND and T_base_flange is not None:
+        raise InputError(
+            "--mode eye-to-hand uses no robot pose (the camera is fixed in the cell): drop "
+            "--robot-pose/--robot-pose-ur, or use --mode eye-in-hand if the camera is on the arm"
+        )
+    return CameraChain(calibration, T_base_flange, calibration.T_base_cam(T_base_flange))
