@@ -1,9 +1,192 @@
-"""Commands that transform points, clouds and poses without a robot (filled in by issue 2)."""
+"""Commands that need no robot: ``point`` (camera point -> robot base) and ``convert`` (pose
+representations)."""
 
 from __future__ import annotations
 
 import argparse
+import json
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from handeye_pick.cli.common import (
+    add_camera_point_args,
+    add_hand_eye_args,
+    add_robot_pose_args,
+    camera_chain_from_args,
+    camera_point_mm_from_args,
+)
+from handeye_pick.errors import InputError
+from handeye_pick.geometry import (
+    AngleUnit,
+    Transform,
+    make_transform,
+    matrix_to_ur_pose,
+    rotation_from_euler,
+    rotation_from_quaternion,
+    rotation_to_euler,
+    rotation_to_quaternion,
+    transform_point,
+    ur_pose_to_matrix,
+    validate_transform,
+)
+
+# argparse takes "-2e-3" for an option name; plain decimals like -0.002 are fine.
+_NEGATIVE_EXPONENT_NOTE = "Write negative numbers without an exponent: -0.002, not -2e-3."
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Add the transform commands to the top-level parser."""
+    """Add the ``point`` and ``convert`` commands to the top-level parser."""
+    point = sub.add_parser(
+        "point",
+        help="transform one camera-frame point (mm) into the robot base frame (mm)",
+        description="Transform one point from the camera frame to the robot base frame: "
+        "p_base = T_base_cam @ p_cam. Eye-to-hand: T_base_cam is the calibration file. "
+        "Eye-in-hand: T_base_cam = T_base_flange @ T_flange_cam, with T_base_flange the flange "
+        "pose when the point was captured. Points in and out are mm; calibration and robot pose "
+        "files are mm unless --calibration-units/--robot-pose-units m.",
+        epilog=_NEGATIVE_EXPONENT_NOTE,
+    )
+    add_hand_eye_args(point)
+    add_robot_pose_args(point)
+    add_camera_point_args(point)
+    point.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object (point_camera_mm, point_base_mm, T_base_cam_m, ...)",
+    )
+    point.set_defaults(run=run_point)
+
+    convert = sub.add_parser(
+        "convert",
+        help="convert a pose between UR vector, 4x4 matrix, quaternion and Euler/RPY",
+        description="Convert one pose between representations. Formats and their numbers: "
+        "ur: X Y Z RX RY RZ (rotation vector, rad; UR pendant and RTDE); "
+        "matrix: 16 numbers, 4x4 row-major; "
+        "quat-xyzw: X Y Z QX QY QZ QW; quat-wxyz: X Y Z QW QX QY QZ; "
+        "euler: X Y Z A B C with --sequence and --angle-unit (the UR pendant's RPY is "
+        "--sequence xyz --angle-unit rad). The translation is copied unchanged, in the unit "
+        "it was given (UR vectors: m).",
+        epilog=_NEGATIVE_EXPONENT_NOTE,
+    )
+    convert.add_argument("--from", dest="source", required=True, choices=_FORMATS, help="input")
+    convert.add_argument("--to", dest="target", required=True, choices=_FORMATS, help="output")
+    convert.add_argument(
+        "--sequence",
+        help="Euler axes as scipy names them: lower case extrinsic (xyz = roll, pitch, yaw "
+        "about fixed axes), upper case intrinsic (ZYX)",
+    )
+    convert.add_argument("--angle-unit", choices=("deg", "rad"), help="Euler angle unit")
+    convert.add_argument("--json", action="store_true", help="print one JSON object")
+    convert.add_argument("values", nargs="+", type=float, metavar="NUMBER", help="the pose")
+    convert.set_defaults(run=run_convert)
+
+
+# --- point ----------------------------------------------------------------------------------------
+
+
+def run_point(args: argparse.Namespace) -> int:
+    """Print the camera point in the robot base frame (mm)."""
+    chain = camera_chain_from_args(args)
+    p_cam_mm = camera_point_mm_from_args(args)
+    if p_cam_mm is None:
+        raise InputError("point needs --xyz X Y Z or --cloud FILE --pixel COL ROW")
+    p_base_mm = transform_point(chain.T_base_cam, p_cam_mm * 1e-3) * 1e3
+    calibration = chain.calibration
+    if args.json:
+        report: dict[str, Any] = {
+            "mode": calibration.mode.value,
+            "calibration": {
+                "path": str(calibration.path),
+                "sha256": calibration.sha256,
+                "units": calibration.units,
+                "inverted": calibration.inverted,
+            },
+            "point_camera_mm": p_cam_mm.tolist(),
+            "point_base_mm": p_base_mm.tolist(),
+            "T_base_cam_m": chain.T_base_cam.tolist(),
+            "T_base_flange_m": None
+            if chain.T_base_flange is None
+            else chain.T_base_flange.tolist(),
+        }
+        print(json.dumps(report))
+    else:
+        print(f"point_camera_mm: {_numbers(p_cam_mm)}")
+        print(f"point_base_mm:   {_numbers(p_base_mm)}")
+    return 0
+
+
+def _numbers(values: NDArray[np.float64]) -> str:
+    return " ".join(f"{v:.4f}" for v in values)
+
+
+# --- convert --------------------------------------------------------------------------------------
+
+_COUNTS = {"ur": 6, "matrix": 16, "quat-xyzw": 7, "quat-wxyz": 7, "euler": 6}
+_FORMATS = tuple(_COUNTS)
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    """Print the pose in the ``--to`` representation."""
+    uses_euler = "euler" in (args.source, args.target)
+    if args.source == "euler" and args.target == "euler":
+        raise InputError(
+            "convert: --from euler --to euler would use one --sequence for both sides; "
+            "convert to matrix first, then from matrix"
+        )
+    if uses_euler and (args.sequence is None or args.angle_unit is None):
+        raise InputError("convert: euler needs both --sequence (e.g. xyz or ZYX) and --angle-unit")
+    if not uses_euler and (args.sequence is not None or args.angle_unit is not None):
+        raise InputError("convert: --sequence and --angle-unit apply only to --from/--to euler")
+    expected = _COUNTS[args.source]
+    if len(args.values) != expected:
+        raise InputError(
+            f"convert --from {args.source}: expected {expected} numbers, got {len(args.values)}"
+        )
+    T = _to_matrix(args.source, np.array(args.values), args.sequence, args.angle_unit)
+    values = _from_matrix(args.target, T, args.sequence, args.angle_unit)
+    if args.json:
+        report: dict[str, Any] = {"format": args.target, "values": values.tolist()}
+        if args.target == "euler":
+            report.update(sequence=args.sequence, angle_unit=args.angle_unit)
+        print(json.dumps(report))
+    elif args.target == "matrix":
+        for row in values:
+            print(" ".join(f"{v: .12g}" for v in row))
+    else:
+        print(" ".join(f"{v:.12g}" for v in values))
+    return 0
+
+
+def _to_matrix(
+    fmt: str, v: NDArray[np.float64], sequence: str | None, angle_unit: AngleUnit | None
+) -> Transform:
+    if fmt == "ur":
+        return ur_pose_to_matrix(v)
+    if fmt == "matrix":
+        return validate_transform(v.reshape(4, 4), "convert --from matrix")
+    if fmt == "quat-xyzw":
+        return make_transform(rotation_from_quaternion(v[3:], "xyzw"), v[:3])
+    if fmt == "quat-wxyz":
+        return make_transform(rotation_from_quaternion(v[3:], "wxyz"), v[:3])
+    if sequence is None or angle_unit is None:  # run_convert checked; narrows the types
+        raise InputError("convert: euler needs --sequence and --angle-unit")
+    return make_transform(rotation_from_euler(v[3:], sequence, angle_unit), v[:3])
+
+
+def _from_matrix(
+    fmt: str, T: Transform, sequence: str | None, angle_unit: AngleUnit | None
+) -> NDArray[np.float64]:
+    if fmt == "ur":
+        return matrix_to_ur_pose(T)
+    if fmt == "matrix":
+        return T
+    R, t = T[:3, :3], T[:3, 3]
+    if fmt == "quat-xyzw":
+        return np.concatenate([t, rotation_to_quaternion(R, "xyzw")])
+    if fmt == "quat-wxyz":
+        return np.concatenate([t, rotation_to_quaternion(R, "wxyz")])
+    if sequence is None or angle_unit is None:
+        raise InputError("convert: euler needs --sequence and --angle-unit")
+    return np.concatenate([t, rotation_to_euler(R, sequence, angle_unit)])
