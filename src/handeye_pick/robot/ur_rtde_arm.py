@@ -1,0 +1,448 @@
+"""RobotArm over ur_rtde 1.6.5, with ur_rtde contained in a child process (robot/worker.py).
+
+One ``URRtdeArm`` is one session: receive + control interfaces (+ IO when a gripper output is
+configured) + a dashboard client, opened once by the constructor and closed by ``close()`` or the
+``with`` block. Every ur_rtde result is checked: a ``False`` becomes ``RobotFault`` carrying the
+controller's safety mode, runtime state and robot mode; a lost link, a dead child or a call that
+does not answer in time becomes ``RobotConnectionError``, after which the session is dead. It never
+reconnects and never re-issues a motion.
+
+Frames and units as in robot/port.py: 4x4 float64 transforms in metres; ``T_base_tcp`` includes
+the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_tcp)``.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing
+import signal
+import socket
+import time
+from enum import IntEnum
+from multiprocessing.process import BaseProcess
+from types import TracebackType
+
+import numpy as np
+
+from handeye_pick.errors import RobotConnectionError, RobotError, RobotFault, SafetyRefusal
+from handeye_pick.geometry import (
+    Transform,
+    invert,
+    matrix_to_ur_pose,
+    rotation_angle_between,
+    ur_pose_to_matrix,
+)
+from handeye_pick.robot.port import (
+    OutputBank,
+    ProgressCallback,
+    RobotMode,
+    RobotStatus,
+    RuntimeState,
+    SafetyMode,
+)
+from handeye_pick.robot.worker import Failure, Hello, Sample, serve
+
+log = logging.getLogger(__name__)
+
+DASHBOARD_PORT = 29999
+FAULT_STOP_DECEL_MPS2 = 10.0
+"""stopL deceleration after a fault, a timeout or Ctrl-C (ur_rtde's own stopL default)."""
+POLL_PERIOD_S = 0.004
+"""How often a running move is watched: two RTDE cycles at 500 Hz."""
+STALE_LINK_S = 0.5
+"""No new RTDE sample for this long during a move means the link is gone."""
+
+# Parts of ur_rtde's RuntimeError texts (1.6.5) and what to tell the operator instead.
+_CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
+    (
+        "remote control",
+        "the robot is in Local mode: switch the teach pendant to Remote Control (enable it under "
+        "Settings > System > Remote Control first), then retry",
+    ),
+    (
+        "already in use",
+        "the RTDE input registers are held by another RTDE client (a URCap such as External "
+        "Control, a ROS driver or another script): stop that client, then retry",
+    ),
+    (
+        "Could not connect",
+        "nothing answers on port 30004: check the address, the network cable and that the "
+        "controller is booted",
+    ),
+    (
+        "control script",
+        "the controller did not start ur_rtde's control script: check on the pendant that the "
+        "robot is powered on, brakes released, no protective stop or popup is pending",
+    ),
+)
+
+
+def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
+    """Stop the running program through a fresh dashboard connection (plain socket, bounded).
+
+    The last resort once the RTDE link is gone: no ur_rtde code, so nothing can reconnect or
+    hang. Returns the controller's reply (``Stopped`` on success); raises ``OSError`` on a
+    socket failure or timeout.
+    """
+    with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout_s) as sock:
+        reader = sock.makefile("r", encoding="ascii", newline="\n")
+        reader.readline()  # banner
+        sock.sendall(b"stop\n")
+        return reader.readline().strip()
+
+
+def _to_ur_list(T: Transform) -> list[float]:
+    return [float(v) for v in matrix_to_ur_pose(T)]
+
+
+def _fmt_pose(pose: list[float]) -> str:
+    return "[" + ", ".join(f"{v:.4f}" for v in pose) + "]"
+
+
+def _state_text(sample: Sample) -> str:
+    return (
+        f"safety mode {_enum_name(SafetyMode, sample.safety_mode)}, runtime state "
+        f"{_enum_name(RuntimeState, sample.runtime_state)}, robot mode "
+        f"{_enum_name(RobotMode, sample.robot_mode)}"
+    )
+
+
+def _enum_name(enum_type: type[IntEnum], value: int) -> str:
+    try:
+        return enum_type(value).name
+    except ValueError:
+        return str(value)
+
+
+def motion_fraction(T_start: Transform, T_now: Transform, T_target: Transform) -> float:
+    """Fraction of a linear move done, 0..1, from the distance left (angle for pure rotations)."""
+    total = float(np.linalg.norm(T_target[:3, 3] - T_start[:3, 3]))
+    if total > 1e-3:
+        left = float(np.linalg.norm(T_target[:3, 3] - T_now[:3, 3]))
+    else:
+        total = rotation_angle_between(T_start[:3, :3], T_target[:3, :3])
+        left = rotation_angle_between(T_now[:3, :3], T_target[:3, :3])
+        if total < 1e-6:
+            return 1.0
+    return min(1.0, max(0.0, 1.0 - left / total))
+
+
+class URRtdeArm:
+    """A connected UR arm through ur_rtde (implements ``RobotArm``); use as a context manager.
+
+    ``with_io`` opens the RTDE IO interface, needed only for ``set_digital_output``.
+    ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
+    that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
+    itself gives up on a busy control script after about 4 s).
+    """
+
+    def __init__(
+        self,
+        host: str,
+        *,
+        with_io: bool = False,
+        connect_timeout_s: float = 20.0,
+        call_timeout_s: float = 6.0,
+    ) -> None:
+        self.host = host
+        self._call_timeout_s = call_timeout_s
+        self._pending_reply = False
+        self._dead_reason: str | None = None
+        context = multiprocessing.get_context("spawn")
+        self._conn, child_conn = context.Pipe()
+        self._process: BaseProcess = context.Process(
+            target=serve, args=(child_conn, host, with_io), name=f"ur_rtde {host}", daemon=True
+        )
+        # Blocked while starting: the child inherits the mask, so a Ctrl-C cannot kill it before
+        # it ignores SIGINT. The parent gets any pending SIGINT once unblocked.
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        try:
+            self._process.start()
+        finally:
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        child_conn.close()
+        log.debug("connecting to %s (ur_rtde in child pid %s)", host, self._process.pid)
+        try:
+            hello = self._receive("connect", connect_timeout_s)
+        except BaseException:
+            self._kill()
+            raise
+        if isinstance(hello, Failure):
+            self._kill()
+            raise self._connect_error(hello)
+        if not isinstance(hello, Hello):
+            self._kill()
+            raise RobotConnectionError(f"connect to {host}: unexpected first message {hello!r}")
+        self.controller_version = hello.controller_version
+        self._T_flange_tcp = self.tcp_offset()
+        log.info("connected to %s: %s", host, self.controller_version)
+
+    # --- context manager ---------------------------------------------------------------------
+
+    def __enter__(self) -> URRtdeArm:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # --- RobotArm ----------------------------------------------------------------------------
+
+    def status(self) -> RobotStatus:
+        """Controller state from the latest RTDE sample plus the dashboard's remote-control flag."""
+        sample = self._sample("sample")
+        remote = bool(self._call("remote_control"))
+        return RobotStatus(
+            controller_version=self.controller_version,
+            robot_mode=sample.robot_mode,
+            safety_mode=sample.safety_mode,
+            runtime_state=sample.runtime_state,
+            remote_control=remote,
+            protective_stopped=sample.protective_stopped,
+            emergency_stopped=sample.emergency_stopped,
+        )
+
+    def tcp_offset(self) -> Transform:
+        """``T_flange_tcp`` (m) asked from the controller now (``getTCPOffset``)."""
+        pose = self._call("tcp_offset")
+        if not isinstance(pose, list) or len(pose) != 6:
+            raise RobotFault(f"getTCPOffset on {self.host}: expected 6 numbers, got {pose!r}")
+        return ur_pose_to_matrix(pose)
+
+    def tcp_pose(self) -> Transform:
+        """``T_base_tcp`` (m) from ``actual_TCP_pose`` of an RTDE sample newer than this call."""
+        return ur_pose_to_matrix(self._sample("fresh_sample").tcp_pose)
+
+    def flange_pose(self) -> Transform:
+        """``T_base_flange`` (m) = fresh ``T_base_tcp`` @ inv(``T_flange_tcp``).
+
+        ``T_flange_tcp`` is the offset read at connect; the pick verifies it against the config.
+        """
+        return self.tcp_pose() @ invert(self._T_flange_tcp)
+
+    def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
+        return bool(self._call("is_pose_within_safety_limits", _to_ur_list(T_base_tcp)))
+
+    def has_ik_solution(self, T_base_tcp: Transform) -> bool:
+        return bool(self._call("has_ik_solution", _to_ur_list(T_base_tcp)))
+
+    def move_linear(
+        self,
+        T_base_tcp: Transform,
+        speed_mps: float,
+        accel_mps2: float,
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """Async moveL to ``T_base_tcp`` watched until done; returns the reached ``T_base_tcp``.
+
+        Watched every ``POLL_PERIOD_S``: protective/emergency stop, safety mode, runtime state,
+        robot mode, the link, and ``timeout_s``. A fault sends stopL (where the link still
+        works) and raises RobotFault; a lost link stops the program through a fresh dashboard
+        connection and raises RobotConnectionError; Ctrl-C sends stopL and propagates.
+        """
+        target = _to_ur_list(T_base_tcp)
+        try:
+            start = self._sample("sample")
+            log.debug("moveL %s v=%.3f a=%.3f", _fmt_pose(target), speed_mps, accel_mps2)
+            accepted = self._call("move_l_async", target, speed_mps, accel_mps2)
+            if not accepted:
+                after = self._sample("sample")
+                raise self._fault(f"moveL to {_fmt_pose(target)} was refused", after)
+            self._watch_motion(start, T_base_tcp, timeout_s, on_progress)
+        except KeyboardInterrupt:
+            log.warning("interrupted during moveL: sending stopL")
+            self.stop_linear(FAULT_STOP_DECEL_MPS2)
+            raise
+        except RobotConnectionError:
+            self._stop_by_dashboard()
+            raise
+        except RobotFault:
+            self.stop_linear(FAULT_STOP_DECEL_MPS2)
+            raise
+        return self.tcp_pose()
+
+    def stop_linear(self, decel_mps2: float) -> None:
+        """stopL; best effort: on a dead link it stops the program through the dashboard."""
+        if self._dead_reason is not None:
+            self._stop_by_dashboard()
+            return
+        try:
+            self._call("stop_l", decel_mps2)
+        except RobotError as exc:
+            log.warning("stopL on %s failed (%s)", self.host, exc)
+            if isinstance(exc, RobotConnectionError):
+                self._stop_by_dashboard()
+
+    def set_digital_output(self, bank: OutputBank, index: int, value: bool) -> None:
+        operation = (
+            "set_standard_digital_out" if bank is OutputBank.STANDARD else "set_tool_digital_out"
+        )
+        if not self._call(operation, index, value):
+            raise self._fault(
+                f"set {bank.value} digital output {index} to {value} was refused",
+                self._sample("sample"),
+            )
+
+    def close(self) -> None:
+        """Disconnect every interface and end the child; safe to call twice."""
+        if self._process.exitcode is None and self._dead_reason is None:
+            try:
+                self._call("close")
+            except RobotError as exc:
+                log.warning("closing the ur_rtde session on %s: %s", self.host, exc)
+        self._kill(grace_s=3.0)
+
+    # --- motion watch ------------------------------------------------------------------------
+
+    def _watch_motion(
+        self,
+        start: Sample,
+        T_target: Transform,
+        timeout_s: float,
+        on_progress: ProgressCallback | None,
+    ) -> None:
+        T_start = ur_pose_to_matrix(start.tcp_pose)
+        deadline = time.monotonic() + timeout_s
+        last_timestamp = start.timestamp_s
+        last_new_sample = time.monotonic()
+        while True:
+            sample = self._sample("sample")
+            now = time.monotonic()
+            self._check_motion_sample(sample)
+            if sample.timestamp_s != last_timestamp:
+                last_timestamp, last_new_sample = sample.timestamp_s, now
+            elif now - last_new_sample > STALE_LINK_S:
+                self._dead_reason = f"no RTDE data for {STALE_LINK_S} s during moveL"
+                raise RobotConnectionError(f"moveL on {self.host}: {self._dead_reason}")
+            # The operation id changes when the move starts, so a move that ended before this
+            # first look still reads as done.
+            done = (
+                not sample.async_running
+                and sample.async_operation_id != start.async_operation_id
+            )
+            if on_progress is not None:
+                T_now = ur_pose_to_matrix(sample.tcp_pose)
+                on_progress(1.0 if done else motion_fraction(T_start, T_now, T_target))
+            if done:
+                return
+            if now > deadline:
+                raise self._fault(f"moveL did not finish within {timeout_s:.1f} s", sample)
+            time.sleep(POLL_PERIOD_S)
+
+    def _check_motion_sample(self, sample: Sample) -> None:
+        if not (sample.receive_connected and sample.control_connected):
+            self._dead_reason = "the RTDE connection dropped during moveL"
+            raise RobotConnectionError(f"moveL on {self.host}: {self._dead_reason}")
+        if sample.protective_stopped or sample.emergency_stopped:
+            kind = "protective stop" if sample.protective_stopped else "emergency stop"
+            raise self._fault(f"moveL aborted by a {kind}", sample)
+        if sample.safety_mode not in (SafetyMode.NORMAL, SafetyMode.REDUCED):
+            raise self._fault("moveL aborted: the controller left normal safety mode", sample)
+        if sample.runtime_state != RuntimeState.PLAYING:
+            raise self._fault("moveL aborted: the control program stopped", sample)
+        if sample.robot_mode != RobotMode.RUNNING:
+            raise self._fault("moveL aborted: the robot is no longer running", sample)
+
+    def _fault(self, what: str, sample: Sample) -> RobotFault:
+        return RobotFault(
+            f"{what} on {self.host} ({_state_text(sample)})",
+            safety_mode=sample.safety_mode,
+            runtime_state=sample.runtime_state,
+            robot_mode=sample.robot_mode,
+        )
+
+    def _stop_by_dashboard(self) -> None:
+        """Kill the child (it may be reconnecting) and send ``stop`` on a fresh dashboard socket."""
+        self._kill()
+        try:
+            reply = dashboard_stop(self.host)
+            log.warning("link to %s lost: dashboard stop answered %r", self.host, reply)
+        except OSError as exc:
+            log.error("link to %s lost and dashboard stop failed: %s", self.host, exc)
+
+    # --- pipe --------------------------------------------------------------------------------
+
+    def _sample(self, operation: str) -> Sample:
+        sample = self._call(operation)
+        if not isinstance(sample, Sample):
+            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {sample!r}")
+        return sample
+
+    def _call(self, operation: str, *args: object) -> object:
+        """One request to the child; its result, or a typed error. Marks the session dead on a
+        lost link, a dead child or no answer within ``call_timeout_s``."""
+        if self._dead_reason is not None:
+            raise RobotConnectionError(
+                f"{operation} on {self.host}: the session is over ({self._dead_reason}); "
+                "start a new one"
+            )
+        if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first
+            self._pending_reply = False
+            self._receive(operation, self._call_timeout_s)
+        try:
+            self._conn.send((operation, args))
+        except OSError as exc:
+            self._dead_reason = f"the ur_rtde process is gone ({exc})"
+            raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
+        self._pending_reply = True
+        reply = self._receive(operation, self._call_timeout_s)
+        self._pending_reply = False
+        if isinstance(reply, Failure):
+            raise self._call_error(reply)
+        if not (isinstance(reply, tuple) and len(reply) == 2 and reply[0] == "ok"):
+            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {reply!r}")
+        return reply[1]
+
+    def _receive(self, operation: str, timeout_s: float) -> object:
+        """Wait for one message from the child, bounded; a silent or dead child ends the session."""
+        deadline = time.monotonic() + timeout_s
+        while not self._conn.poll(0.05):
+            if not self._process.is_alive():
+                self._dead_reason = (
+                    f"the ur_rtde process died (exit code {self._process.exitcode})"
+                )
+                break
+            if time.monotonic() > deadline:
+                self._dead_reason = f"no answer to {operation} within {timeout_s} s"
+                break
+        else:
+            try:
+                return self._conn.recv()
+            except (EOFError, OSError):
+                self._dead_reason = "the ur_rtde process closed its pipe (it probably crashed)"
+        self._kill()
+        raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}")
+
+    def _kill(self, grace_s: float = 0.0) -> None:
+        """End the child (given ``grace_s`` to leave by itself) and the pipe; session over."""
+        if self._dead_reason is None:
+            self._dead_reason = "the session was closed"
+        self._process.join(timeout=grace_s)
+        if self._process.exitcode is None:
+            self._process.kill()
+            self._process.join(timeout=3.0)
+        self._conn.close()
+
+    def _connect_error(self, failure: Failure) -> RobotError | SafetyRefusal:
+        for fragment, hint in _CONNECT_ERROR_HINTS:
+            if fragment in failure.message:
+                message = f"connect to {self.host}: {hint} (ur_rtde: {failure.message})"
+                if fragment == "remote control":
+                    return SafetyRefusal(message)
+                return RobotConnectionError(message)
+        return RobotConnectionError(
+            f"connect to {self.host}: {failure.exception_type}: {failure.message}"
+        )
+
+    def _call_error(self, failure: Failure) -> RobotError:
+        text = f"{failure.operation} on {self.host}: {failure.exception_type}: {failure.message}"
+        if failure.operation == "fresh_sample":  # the receive stream is stale or gone
+            self._dead_reason = failure.message
+            self._kill()
+            return RobotConnectionError(text)
+        return RobotFault(text)  # the controller refused ("did not succeed") or a bad argument

@@ -1,0 +1,182 @@
+"""The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
+
+Why a child process: after a lost connection ur_rtde 1.6.5 reconnects by itself, loops and can
+segfault the process (ur_rtde_protocol.md section 9). Here that can only kill this child; the
+parent sees a dead pipe, reports a RobotConnectionError and stops the robot through a fresh
+dashboard connection. The child ignores SIGINT so the parent can still send stopL after Ctrl-C.
+
+Protocol: the child answers one ``Hello`` or ``Failure`` after connecting, then one reply per
+request ``(operation, args)``: ``("ok", result)`` or a ``Failure``. Poses cross the pipe as UR
+vectors (m, rad) in plain lists; the parent does all frame maths.
+"""
+
+from __future__ import annotations
+
+import signal
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any
+
+FRESH_SAMPLE_TIMEOUT_S = 0.5
+"""How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
+
+
+@dataclass(frozen=True)
+class Hello:
+    """Sent once the interfaces are connected."""
+
+    controller_version: str
+
+
+@dataclass(frozen=True)
+class Failure:
+    """An exception raised in the child, by type name and message (ur_rtde raises RuntimeError)."""
+
+    operation: str
+    exception_type: str
+    message: str
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One read of the receive and control interfaces' cached RTDE state (no controller call).
+
+    ``tcp_pose`` is ``actual_TCP_pose`` as a UR vector (m, rad) in the base frame.
+    """
+
+    timestamp_s: float
+    tcp_pose: list[float]
+    robot_mode: int
+    safety_mode: int
+    runtime_state: int
+    protective_stopped: bool
+    emergency_stopped: bool
+    async_running: bool
+    async_operation_id: int
+    receive_connected: bool
+    control_connected: bool
+
+
+class _Session:
+    """The ur_rtde interfaces of one connection; methods are the operations the parent calls."""
+
+    def __init__(self, host: str, with_io: bool) -> None:
+        # Imported here: the parent process never loads ur_rtde.
+        import dashboard_client
+        import rtde_control
+        import rtde_io
+        import rtde_receive
+
+        self._receive: Any = rtde_receive.RTDEReceiveInterface(host)
+        self._control: Any = rtde_control.RTDEControlInterface(host)
+        self._io: Any = rtde_io.RTDEIOInterface(host) if with_io else None
+        self._dashboard: Any = dashboard_client.DashboardClient(host)
+        self._dashboard.connect()
+        self.controller_version = str(self._dashboard.polyscopeVersion())
+
+    def sample(self) -> Sample:
+        r, c = self._receive, self._control
+        async_status = c.getAsyncOperationProgressEx()
+        return Sample(
+            timestamp_s=float(r.getTimestamp()),
+            tcp_pose=list(r.getActualTCPPose()),
+            robot_mode=int(r.getRobotMode()),
+            safety_mode=int(r.getSafetyMode()),
+            runtime_state=int(r.getRuntimeState()),
+            protective_stopped=bool(r.isProtectiveStopped()),
+            emergency_stopped=bool(r.isEmergencyStopped()),
+            async_running=bool(async_status.isAsyncOperationRunning()),
+            async_operation_id=int(async_status.operationId()),
+            receive_connected=bool(r.isConnected()),
+            control_connected=bool(c.isConnected()),
+        )
+
+    def fresh_sample(self) -> Sample:
+        """A sample received after this call started (the timestamp advanced)."""
+        r = self._receive
+        start = float(r.getTimestamp())
+        deadline = time.monotonic() + FRESH_SAMPLE_TIMEOUT_S
+        while float(r.getTimestamp()) <= start:
+            if not r.isConnected() or time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"no RTDE sample newer than controller time {start:.3f} s within "
+                    f"{FRESH_SAMPLE_TIMEOUT_S} s (receive connected: {r.isConnected()})"
+                )
+            time.sleep(0.0002)
+        return self.sample()
+
+    def remote_control(self) -> bool:
+        return bool(self._dashboard.isInRemoteControl())
+
+    def tcp_offset(self) -> list[float]:
+        return list(self._control.getTCPOffset())
+
+    def is_pose_within_safety_limits(self, pose: list[float]) -> bool:
+        return bool(self._control.isPoseWithinSafetyLimits(pose))
+
+    def has_ik_solution(self, pose: list[float]) -> bool:
+        return bool(self._control.getInverseKinematicsHasSolution(pose))
+
+    def move_l_async(self, pose: list[float], speed_mps: float, accel_mps2: float) -> bool:
+        return bool(self._control.moveL(pose, speed_mps, accel_mps2, True))
+
+    def stop_l(self, decel_mps2: float) -> None:
+        self._control.stopL(decel_mps2, False)
+
+    def set_standard_digital_out(self, index: int, value: bool) -> bool:
+        return bool(self._require_io().setStandardDigitalOut(index, value))
+
+    def set_tool_digital_out(self, index: int, value: bool) -> bool:
+        return bool(self._require_io().setToolDigitalOut(index, value))
+
+    def _require_io(self) -> Any:
+        if self._io is None:
+            raise RuntimeError("the IO interface was not opened (no gripper output configured)")
+        return self._io
+
+    def close(self) -> None:
+        if self._io is not None:
+            self._io.disconnect()
+        self._control.disconnect()
+        self._receive.disconnect()
+        self._dashboard.disconnect()
+
+
+def serve(conn: Connection, host: str, with_io: bool) -> None:
+    """Child process entry point: connect, announce, answer requests until ``close`` or EOF."""
+    # The parent blocks SIGINT while starting this process, so no Ctrl-C can reach the
+    # interpreter before this line; ignore it for good, then unblock.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+    try:
+        session = _Session(host, with_io)
+    except Exception as exc:  # every failure goes back to the parent, typed there
+        conn.send(Failure("connect", type(exc).__name__, str(exc)))
+        return
+    conn.send(Hello(session.controller_version))
+    operations: dict[str, Callable[..., object]] = {
+        "sample": session.sample,
+        "fresh_sample": session.fresh_sample,
+        "remote_control": session.remote_control,
+        "tcp_offset": session.tcp_offset,
+        "is_pose_within_safety_limits": session.is_pose_within_safety_limits,
+        "has_ik_solution": session.has_ik_solution,
+        "move_l_async": session.move_l_async,
+        "stop_l": session.stop_l,
+        "set_standard_digital_out": session.set_standard_digital_out,
+        "set_tool_digital_out": session.set_tool_digital_out,
+        "close": session.close,
+    }
+    while True:
+        try:
+            operation, args = conn.recv()
+        except EOFError:  # parent gone: leave without touching the robot
+            return
+        try:
+            conn.send(("ok", operations[operation](*args)))
+        except Exception as exc:
+            conn.send(Failure(operation, type(exc).__name__, str(exc)))
+        if operation == "close":
+            return
