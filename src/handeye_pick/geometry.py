@@ -12,6 +12,7 @@ Conventions used across the package:
 
 from __future__ import annotations
 
+import warnings
 from typing import Literal
 
 import numpy as np
@@ -164,6 +165,11 @@ def matrix_to_ur_pose(T: Transform) -> NDArray[np.float64]:
 # --- orientation representations -----------------------------------------------------------------
 
 
+def _scipy_rotation(R: ArrayLike, target: str) -> Rotation:
+    # scipy's from_matrix silently repairs a non-rotation; refuse it first.
+    return Rotation.from_matrix(validate_rotation(R, f"rotation to convert to {target}"))
+
+
 def rotation_from_rotvec(rotvec_rad: ArrayLike) -> NDArray[np.float64]:
     """Rotation vector (axis times angle, rad) -> 3x3 rotation matrix."""
     return np.asarray(Rotation.from_rotvec(_vector(rotvec_rad, 3, "rotation vector")).as_matrix())
@@ -171,7 +177,7 @@ def rotation_from_rotvec(rotvec_rad: ArrayLike) -> NDArray[np.float64]:
 
 def rotation_to_rotvec(R: ArrayLike) -> NDArray[np.float64]:
     """3x3 rotation matrix -> rotation vector (rad), angle in [0, pi]; exact near pi and zero."""
-    return np.asarray(Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_rotvec())
+    return np.asarray(_scipy_rotation(R, "rotation vector").as_rotvec())
 
 
 def rotation_from_quaternion(q: ArrayLike, order: QuaternionOrder) -> NDArray[np.float64]:
@@ -193,7 +199,7 @@ def rotation_from_quaternion(q: ArrayLike, order: QuaternionOrder) -> NDArray[np
 
 def rotation_to_quaternion(R: ArrayLike, order: QuaternionOrder) -> NDArray[np.float64]:
     """3x3 rotation matrix -> unit quaternion in the named order, with w >= 0."""
-    q = np.asarray(Rotation.from_matrix(np.asarray(R, dtype=np.float64)).as_quat(canonical=True))
+    q = np.asarray(_scipy_rotation(R, f"quaternion ({order})").as_quat(canonical=True))
     if order == "wxyz":
         return np.roll(q, 1)
     if order != "xyzw":
@@ -233,7 +239,15 @@ def rotation_from_euler(angles: ArrayLike, sequence: str, unit: AngleUnit) -> ND
 
 
 def rotation_to_euler(R: ArrayLike, sequence: str, unit: AngleUnit) -> NDArray[np.float64]:
-    """3x3 rotation -> Euler angles in the named sequence and unit (scipy's gimbal-lock choice)."""
+    """3x3 rotation -> Euler angles in the named sequence and unit.
+
+    At gimbal lock (middle angle within ~1e-7 rad of its singular value) only the sum or
+    difference of the outer angles is defined: the third angle is set to 0, as scipy does, and
+    the angles still give back the rotation within 1e-6 rad.
+    """
     degrees = _check_angle_unit(unit)
-    rot = Rotation.from_matrix(np.asarray(R, dtype=np.float64))
-    return np.asarray(rot.as_euler(check_euler_sequence(sequence), degrees=degrees))
+    rot = _scipy_rotation(R, f"Euler angles ({sequence}, {unit})")
+    with warnings.catch_warnings():
+        # The documented gimbal-lock choice above is not news to the caller.
+        warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
+        return np.asarray(rot.as_euler(check_euler_sequence(sequence), degrees=degrees))
