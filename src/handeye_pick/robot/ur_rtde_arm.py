@@ -45,8 +45,6 @@ from handeye_pick.robot.worker import Failure, Hello, Sample, serve
 log = logging.getLogger(__name__)
 
 DASHBOARD_PORT = 29999
-FAULT_STOP_DECEL_MPS2 = 10.0
-"""stopL deceleration after a fault, a timeout or Ctrl-C (ur_rtde's own stopL default)."""
 POLL_PERIOD_S = 0.004
 """How often a running move is watched: two RTDE cycles at 500 Hz."""
 STALE_LINK_S = 0.5
@@ -131,6 +129,7 @@ class URRtdeArm:
     """A connected UR arm through ur_rtde (implements ``RobotArm``); use as a context manager.
 
     ``with_io`` opens the RTDE IO interface, needed only for ``set_digital_output``.
+    ``stop_decel_mps2`` is the stopL deceleration after a fault, a timeout or Ctrl-C.
     ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
     that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
     itself gives up on a busy control script after about 4 s).
@@ -141,11 +140,13 @@ class URRtdeArm:
         host: str,
         *,
         with_io: bool = False,
+        stop_decel_mps2: float = 10.0,
         connect_timeout_s: float = 20.0,
         call_timeout_s: float = 6.0,
     ) -> None:
         self.host = host
         self._call_timeout_s = call_timeout_s
+        self._stop_decel_mps2 = stop_decel_mps2
         self._pending_reply = False
         self._dead_reason: str | None = None
         context = multiprocessing.get_context("spawn")
@@ -256,13 +257,13 @@ class URRtdeArm:
             self._watch_motion(start, T_base_tcp, timeout_s, on_progress)
         except KeyboardInterrupt:
             log.warning("interrupted during moveL: sending stopL")
-            self.stop_linear(FAULT_STOP_DECEL_MPS2)
+            self.stop_linear(self._stop_decel_mps2)
             raise
         except RobotConnectionError:
             self._stop_by_dashboard()
             raise
         except RobotFault:
-            self.stop_linear(FAULT_STOP_DECEL_MPS2)
+            self.stop_linear(self._stop_decel_mps2)
             raise
         return self.tcp_pose()
 
