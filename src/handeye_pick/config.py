@@ -1,0 +1,502 @@
+"""The cell configuration: one YAML file read with ``yaml.safe_load`` into frozen dataclasses.
+
+Every key is checked where it is read: an unknown key, a wrong type or a value out of range is a
+``ConfigError`` naming the file and the key path (``motion.speed_mps``). Units are in the key
+names (``_mm``, ``_mps``, ``_deg``, ``_s``); inside the package everything is metres and radians.
+``config/cell.example.yaml`` documents every key.
+
+``Fields`` and ``read_yaml_mapping`` are also used by ``detection.py`` for its own files.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Collection
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+
+from handeye_pick.calibration import HandEyeMode
+from handeye_pick.errors import ConfigError, InputError
+from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
+from handeye_pick.robot.port import OutputBank
+from handeye_pick.safety import (
+    MAX_ACCEL_MPS2,
+    MAX_GRASP_SPEED_MPS,
+    MAX_SPEED_MPS,
+    stop_decel_problem,
+)
+
+# Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
+# real cell uses, so it only fires on a mistake.
+MAX_TCP_OFFSET_M = 1.0  # a TCP offset in mm (150) typed into this m key would be 150 m
+MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
+MAX_ROTVEC_RAD = 2.0 * math.pi  # a rotation vector longer than this is in degrees
+MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
+MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
+MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
+MIN_WORKSPACE_EXTENT_MM = 10.0  # a box thinner than 1 cm is a box written in metres
+STANDARD_OUTPUTS = 8  # standard digital outputs 0-7 on the control box
+TOOL_OUTPUTS = 2  # tool digital outputs 0-1 on the tool flange connector
+
+
+@dataclass(frozen=True)
+class GripperConfig:
+    """One digital output that closes the gripper (suction valve, finger gripper)."""
+
+    bank: OutputBank  # standard (control box) or tool (flange connector)
+    index: int  # output number: 0-7 standard, 0-1 tool
+    close_value: bool  # output level that closes the gripper / switches suction on
+    settle_s: float  # wait after switching before the retreat starts (s)
+
+
+@dataclass(frozen=True)
+class RobotConfig:
+    """The arm and what the pendant must be set to."""
+
+    host: str  # controller IP address or host name
+    T_flange_tcp: Transform  # expected active TCP offset on the controller (m), checked at connect
+    tcp_offset_tolerance_mm: float = 1.0  # accepted translation difference, controller vs config
+    tcp_offset_tolerance_deg: float = 1.0  # accepted rotation difference, controller vs config
+    gripper: GripperConfig | None = None  # None: the pick moves only, no output is switched
+
+
+@dataclass(frozen=True)
+class HandEyeConfig:
+    """Where the hand-eye calibration result is and how to read it."""
+
+    mode: HandEyeMode  # eye-in-hand: file holds T_flange_cam; eye-to-hand: T_base_cam
+    file: Path  # absolute, resolved relative to the config file
+    units: LengthUnit  # length unit of the file's translation ("mm" for Zivid)
+    invert: bool = False  # the file was written the other way round (T_cam_flange / T_cam_base)
+
+
+@dataclass(frozen=True)
+class GraspConfig:
+    """Where the TCP goes relative to the detected object."""
+
+    approach_mm: float  # approach point: grasp moved back along the grasp's tool z (mm)
+    retreat_mm: float  # retreat point: grasp moved back along the grasp's tool z (mm)
+    T_obj_tcp: Transform = field(default_factory=lambda: np.eye(4))  # TCP at grasp in object frame
+
+
+@dataclass(frozen=True)
+class MotionConfig:
+    """moveL parameters of the TCP."""
+
+    speed_mps: float  # approach and retreat moves (m/s)
+    accel_mps2: float  # every move (m/s^2)
+    grasp_speed_mps: float  # the final move from approach to grasp (m/s)
+    stop_decel_mps2: float = 10.0  # stopL deceleration on a fault or Ctrl-C (m/s^2)
+    timeout_margin_s: float = 5.0  # added to a move's expected duration before it counts as hung
+
+
+@dataclass(frozen=True)
+class WorkspaceConfig:
+    """A box in the robot base frame that every TCP target must lie in, and a tilt limit."""
+
+    min_mm: tuple[float, float, float]  # lower corner, base frame (mm)
+    max_mm: tuple[float, float, float]  # upper corner, base frame (mm)
+    max_tilt_deg: float  # largest angle between tool z and straight down (base -z), degrees
+
+
+@dataclass(frozen=True)
+class AuditConfig:
+    """Where pick records are appended."""
+
+    file: Path  # JSON lines, absolute, resolved relative to the config file
+
+
+@dataclass(frozen=True)
+class CellConfig:
+    """The whole cell configuration, as loaded from ``path``."""
+
+    robot: RobotConfig
+    hand_eye: HandEyeConfig
+    grasp: GraspConfig
+    motion: MotionConfig
+    workspace: WorkspaceConfig
+    audit: AuditConfig
+    path: Path  # the config file itself (absolute)
+
+
+# --- reading YAML strictly ----------------------------------------------------------------------
+
+
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key given twice (plain safe_load keeps the last one silently)."""
+
+
+def _construct_unique_mapping(
+    loader: yaml.SafeLoader, node: yaml.MappingNode
+) -> dict[object, object]:
+    seen: set[object] = set()
+    for key_node, _ in node.value:
+        key = loader.construct_object(key_node)
+        if key in seen:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"key {key!r} appears twice", key_node.start_mark
+            )
+        seen.add(key)
+    return loader.construct_mapping(node)
+
+
+_UniqueKeyLoader.add_constructor(
+    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_unique_mapping
+)
+
+
+def read_yaml_mapping(path: Path, error: type[InputError]) -> object:
+    """Parse ``path`` as YAML (safe constructors only, duplicate keys refused).
+
+    Raises ``error`` naming the file for a missing or unreadable file or a syntax error.
+    """
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise error(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+    try:
+        return yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass: safe
+    except yaml.YAMLError as exc:
+        raise error(f"{path}: not valid YAML: {exc}") from None
+
+
+class Fields:
+    """Typed access to one YAML mapping; every error names the source file and the key path.
+
+    Unknown keys are refused when the mapping is opened, so a misspelt key never falls back to a
+    default.
+    """
+
+    def __init__(
+        self,
+        data: object,
+        *,
+        source: str,
+        prefix: str,
+        allowed: Collection[str],
+        error: type[InputError],
+    ) -> None:
+        self.source = source
+        self.prefix = prefix
+        self.error = error
+        if not isinstance(data, dict):
+            self.fail("", f"expected a mapping of keys, got {_describe(data)}")
+        self.data: dict[object, object] = data
+        for key in data:
+            if key not in allowed:
+                hint = difflib.get_close_matches(str(key), list(allowed), n=1)
+                also = f"; did you mean {hint[0]!r}?" if hint else ""
+                self.fail(
+                    str(key), f"unknown key (expected one of {', '.join(sorted(allowed))}){also}"
+                )
+
+    def path(self, key: str) -> str:
+        """The dotted key path, e.g. ``motion.speed_mps``."""
+        if not self.prefix:
+            return key
+        return f"{self.prefix}.{key}" if key else self.prefix
+
+    def fail(self, key: str, message: str) -> NoReturn:
+        where = self.path(key) or "top level"
+        raise self.error(f"{self.source}: {where}: {message}")
+
+    def has(self, key: str) -> bool:
+        return key in self.data
+
+    def raw(self, key: str) -> object:
+        """The value of a required key."""
+        if key not in self.data:
+            self.fail(key, "missing (required)")
+        return self.data[key]
+
+    def section(self, key: str, allowed: Collection[str]) -> Fields:
+        """A nested mapping (required)."""
+        return Fields(
+            self.raw(key),
+            source=self.source,
+            prefix=self.path(key),
+            allowed=allowed,
+            error=self.error,
+        )
+
+    def number(
+        self,
+        key: str,
+        *,
+        default: float | None = None,
+        minimum: float | None = None,
+        above: float | None = None,
+        maximum: float | None = None,
+        unit: str = "",
+    ) -> float:
+        """A finite number (int or float, never bool) in ``[minimum, maximum]`` / ``> above``."""
+        if default is not None and key not in self.data:
+            return default
+        value = self._to_float(key, self.raw(key))
+        suffix = f" {unit}" if unit else ""
+        if minimum is not None and value < minimum:
+            self.fail(key, f"must be at least {minimum:g}{suffix}, got {value:g}")
+        if above is not None and value <= above:
+            self.fail(key, f"must be greater than {above:g}{suffix}, got {value:g}")
+        if maximum is not None and value > maximum:
+            self.fail(key, f"must be at most {maximum:g}{suffix}, got {value:g}")
+        return value
+
+    def integer(self, key: str, *, minimum: int, maximum: int) -> int:
+        value = self.raw(key)
+        if isinstance(value, bool) or not isinstance(value, int):
+            self.fail(key, f"expected an integer, got {_describe(value)}")
+        if not minimum <= value <= maximum:
+            self.fail(key, f"must be between {minimum} and {maximum}, got {value}")
+        return value
+
+    def boolean(self, key: str, *, default: bool | None = None) -> bool:
+        if default is not None and key not in self.data:
+            return default
+        value = self.raw(key)
+        if not isinstance(value, bool):
+            self.fail(key, f"expected true or false, got {_describe(value)}")
+        return value
+
+    def string(self, key: str, *, choices: Collection[str] | None = None) -> str:
+        value = self.raw(key)
+        if not isinstance(value, str) or not value.strip():
+            self.fail(key, f"expected a non-empty string, got {_describe(value)}")
+        if choices is not None and value not in choices:
+            self.fail(key, f"expected one of {', '.join(choices)}, got {value!r}")
+        return value
+
+    def vector(self, key: str, length: int) -> NDArray[np.float64]:
+        """A list of ``length`` finite numbers."""
+        value = self.raw(key)
+        if not isinstance(value, list) or len(value) != length:
+            self.fail(key, f"expected a list of {length} numbers, got {_describe(value)}")
+        return np.array([self._to_float(f"{key}[{i}]", v) for i, v in enumerate(value)])
+
+    def matrix(self, key: str, rows: int, cols: int) -> NDArray[np.float64]:
+        """A list of ``rows`` lists of ``cols`` finite numbers."""
+        value = self.raw(key)
+        if not isinstance(value, list) or len(value) != rows:
+            self.fail(key, f"expected {rows} rows of {cols} numbers, got {_describe(value)}")
+        out = np.empty((rows, cols))
+        for i, row in enumerate(value):
+            if not isinstance(row, list) or len(row) != cols:
+                self.fail(f"{key}[{i}]", f"expected a row of {cols} numbers, got {_describe(row)}")
+            out[i] = [self._to_float(f"{key}[{i}][{j}]", v) for j, v in enumerate(row)]
+        return out
+
+    def _to_float(self, key: str, value: object) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            hint = ""
+            if isinstance(value, str) and _parses_as_float(value):
+                # YAML 1.1 (PyYAML) reads 1e-3 as text: it needs a dot, 1.0e-3.
+                hint = " (YAML reads exponents without a dot as text: write 1.0e-3, not 1e-3)"
+            self.fail(key, f"expected a number, got {_describe(value)}{hint}")
+        number = float(value)
+        if not math.isfinite(number):
+            self.fail(key, f"expected a finite number, got {number}")
+        return number
+
+
+def _parses_as_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _describe(value: object) -> str:
+    if value is None:
+        return "nothing (null)"
+    if isinstance(value, bool):
+        return f"boolean {value}"
+    if isinstance(value, str):
+        return f"string {value!r}"
+    if isinstance(value, list):
+        return f"a list of {len(value)} items"
+    if isinstance(value, dict):
+        return "a mapping"
+    return f"{type(value).__name__} {value!r}"
+
+
+# --- the cell config ----------------------------------------------------------------------------
+
+
+def load_config(path: Path) -> CellConfig:
+    """Read and validate a cell config; file paths in it are resolved relative to its folder."""
+    path = Path(path).resolve()
+    top = Fields(
+        read_yaml_mapping(path, ConfigError),
+        source=str(path),
+        prefix="",
+        allowed=("robot", "hand_eye", "grasp", "motion", "workspace", "audit"),
+        error=ConfigError,
+    )
+    return CellConfig(
+        robot=_robot(top),
+        hand_eye=_hand_eye(top, path.parent),
+        grasp=_grasp(top),
+        motion=_motion(top),
+        workspace=_workspace(top),
+        audit=_audit(top, path.parent),
+        path=path,
+    )
+
+
+def _pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transform:
+    """A UR pose vector [x, y, z, rx, ry, rz] in m and rad, checked for unit mix-ups."""
+    pose = fields.vector(key, 6)
+    distance = float(np.linalg.norm(pose[:3]))
+    if distance > max_translation_m:
+        fields.fail(
+            key,
+            f"translation is {distance:g} m long, more than {max_translation_m:g} m: "
+            "this key is in metres (millimetres given?)",
+        )
+    angle = float(np.linalg.norm(pose[3:]))
+    if angle > MAX_ROTVEC_RAD:
+        fields.fail(
+            key,
+            f"rotation vector is {angle:g} rad long, more than 2*pi: "
+            "this key is in radians (degrees given?)",
+        )
+    return ur_pose_to_matrix(pose)
+
+
+def _robot(top: Fields) -> RobotConfig:
+    robot = top.section(
+        "robot",
+        ("host", "tcp_offset", "tcp_offset_tolerance_mm", "tcp_offset_tolerance_deg", "gripper"),
+    )
+    return RobotConfig(
+        host=robot.string("host"),
+        T_flange_tcp=_pose_vector(robot, "tcp_offset", MAX_TCP_OFFSET_M),
+        tcp_offset_tolerance_mm=robot.number(
+            "tcp_offset_tolerance_mm", default=1.0, above=0.0, maximum=20.0, unit="mm"
+        ),
+        tcp_offset_tolerance_deg=robot.number(
+            "tcp_offset_tolerance_deg", default=1.0, above=0.0, maximum=10.0, unit="deg"
+        ),
+        gripper=_gripper(robot) if robot.has("gripper") else None,
+    )
+
+
+def _gripper(robot: Fields) -> GripperConfig:
+    gripper = robot.section("gripper", ("bank", "index", "close_value", "settle_s"))
+    bank = OutputBank(gripper.string("bank", choices=[b.value for b in OutputBank]))
+    count = TOOL_OUTPUTS if bank is OutputBank.TOOL else STANDARD_OUTPUTS
+    return GripperConfig(
+        bank=bank,
+        index=gripper.integer("index", minimum=0, maximum=count - 1),
+        close_value=gripper.boolean("close_value"),
+        settle_s=gripper.number("settle_s", default=0.5, minimum=0.0, maximum=10.0, unit="s"),
+    )
+
+
+def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
+    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert"))
+    mode = HandEyeMode(hand_eye.string("mode", choices=[m.value for m in HandEyeMode]))
+    units: LengthUnit = "mm" if hand_eye.string("units", choices=("mm", "m")) == "mm" else "m"
+    return HandEyeConfig(
+        mode=mode,
+        file=_existing_file(hand_eye, "file", folder),
+        units=units,
+        invert=hand_eye.boolean("invert", default=False),
+    )
+
+
+def _existing_file(fields: Fields, key: str, folder: Path) -> Path:
+    path = (folder / fields.string(key)).resolve()
+    if not path.is_file():
+        fields.fail(key, f"file not found: {path}")
+    return path
+
+
+def _grasp(top: Fields) -> GraspConfig:
+    grasp = top.section("grasp", ("approach_mm", "retreat_mm", "object_T_tcp"))
+    return GraspConfig(
+        approach_mm=grasp.number(
+            "approach_mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM, unit="mm"
+        ),
+        retreat_mm=grasp.number(
+            "retreat_mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM, unit="mm"
+        ),
+        T_obj_tcp=(
+            _pose_vector(grasp, "object_T_tcp", MAX_OBJECT_OFFSET_M)
+            if grasp.has("object_T_tcp")
+            else np.eye(4)
+        ),
+    )
+
+
+def _motion(top: Fields) -> MotionConfig:
+    motion = top.section(
+        "motion",
+        ("speed_mps", "accel_mps2", "grasp_speed_mps", "stop_decel_mps2", "timeout_margin_s"),
+    )
+    speed = motion.number("speed_mps", above=0.0, maximum=MAX_SPEED_MPS, unit="m/s")
+    grasp_speed = motion.number(
+        "grasp_speed_mps", above=0.0, maximum=MAX_GRASP_SPEED_MPS, unit="m/s"
+    )
+    if grasp_speed > speed:
+        motion.fail(
+            "grasp_speed_mps",
+            f"the grasp move must not be faster than motion.speed_mps ({speed:g} m/s), "
+            f"got {grasp_speed:g} m/s",
+        )
+    accel = motion.number("accel_mps2", above=0.0, maximum=MAX_ACCEL_MPS2, unit="m/s^2")
+    stop_decel = motion.number("stop_decel_mps2", default=10.0, above=0.0, unit="m/s^2")
+    problem = stop_decel_problem(stop_decel, accel)
+    if problem is not None:
+        motion.fail("stop_decel_mps2", problem)
+    return MotionConfig(
+        speed_mps=speed,
+        accel_mps2=accel,
+        grasp_speed_mps=grasp_speed,
+        stop_decel_mps2=stop_decel,
+        timeout_margin_s=motion.number(
+            "timeout_margin_s", default=5.0, above=0.0, maximum=120.0, unit="s"
+        ),
+    )
+
+
+def _workspace(top: Fields) -> WorkspaceConfig:
+    workspace = top.section("workspace", ("min_mm", "max_mm", "max_tilt_deg"))
+    corners = {}
+    for key in ("min_mm", "max_mm"):
+        corner = workspace.vector(key, 3)
+        if np.any(np.abs(corner) > MAX_WORKSPACE_MM):
+            workspace.fail(
+                key, f"coordinates must lie within +-{MAX_WORKSPACE_MM:g} mm, got {corner.tolist()}"
+            )
+        corners[key] = corner
+    extent = corners["max_mm"] - corners["min_mm"]
+    for axis, size in zip("xyz", extent, strict=True):
+        if size < MIN_WORKSPACE_EXTENT_MM:
+            workspace.fail(
+                "max_mm",
+                f"{axis} must be at least {MIN_WORKSPACE_EXTENT_MM:g} mm above min_mm "
+                f"(min {corners['min_mm'].tolist()}, max {corners['max_mm'].tolist()}; "
+                "min above max, or metres given?)",
+            )
+    lo, hi = corners["min_mm"], corners["max_mm"]
+    return WorkspaceConfig(
+        min_mm=(float(lo[0]), float(lo[1]), float(lo[2])),
+        max_mm=(float(hi[0]), float(hi[1]), float(hi[2])),
+        max_tilt_deg=workspace.number("max_tilt_deg", minimum=0.0, maximum=180.0, unit="deg"),
+    )
+
+
+def _audit(top: Fields, folder: Path) -> AuditConfig:
+    audit = top.section("audit", ("file",))
+    path = (folder / audit.string("file")).resolve()
+    if not path.parent.is_dir():
+        audit.fail("file", f"folder does not exist: {path.parent}")
+    return AuditConfig(file=path)

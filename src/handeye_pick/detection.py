@@ -1,0 +1,127 @@
+"""A detected object in the camera frame: from a detection file or a single camera point.
+
+Frames and units: ``T_cam_obj`` is the object pose in the camera's optical frame (z forward,
+out of the lens), in metres. Files and command-line points give millimetres.
+
+Detection file (YAML)::
+
+    position_mm: [83.95, 28.84, 305.7]
+    orientation:                  # optional; absent means position only. Exactly one of:
+      rotvec_rad: [0, 0, 0]       #   rotation vector (axis * angle), rad
+      # quaternion_xyzw: [0, 0, 0, 1]
+      # quaternion_wxyz: [1, 0, 0, 0]
+      # rpy_deg: {angles: [0, 0, 0], convention: xyz}   # scipy: xyz extrinsic, XYZ intrinsic
+      # matrix: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]       # 3x3 rotation, validated
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from handeye_pick.config import Fields, read_yaml_mapping
+from handeye_pick.errors import DetectionError, TransformError
+from handeye_pick.geometry import (
+    Transform,
+    make_transform,
+    rotation_from_euler,
+    rotation_from_quaternion,
+    rotation_from_rotvec,
+    validate_rotation,
+)
+
+# A point closer than 10 mm to the camera is no detection: it is metres typed as millimetres
+# (0.3 "mm" instead of 300 mm). Farther than 10 m is beyond any 3D camera used for picking.
+MIN_DISTANCE_MM = 10.0
+MAX_DISTANCE_MM = 10_000.0
+
+ORIENTATION_KEYS = ("rotvec_rad", "quaternion_xyzw", "quaternion_wxyz", "rpy_deg", "matrix")
+
+
+@dataclass(frozen=True)
+class Detection:
+    """An object pose in the camera frame.
+
+    ``T_cam_obj`` in metres. With ``position_only`` the rotation is identity and means nothing:
+    the grasp keeps the tool pointing down instead of following it.
+    """
+
+    T_cam_obj: Transform
+    position_only: bool
+    source: str  # where it came from, for messages and the audit record
+
+
+def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
+    """Refuse a camera point that cannot be a detection: non-finite, behind, at or far from the
+    lens."""
+    if not np.all(np.isfinite(p_cam_mm)):
+        raise DetectionError(f"{source}: camera point has non-finite values {p_cam_mm.tolist()}")
+    distance = float(np.linalg.norm(p_cam_mm))
+    if not MIN_DISTANCE_MM <= distance <= MAX_DISTANCE_MM:
+        raise DetectionError(
+            f"{source}: camera point {p_cam_mm.tolist()} mm is {distance:g} mm from the camera, "
+            f"expected {MIN_DISTANCE_MM:g} to {MAX_DISTANCE_MM:g} mm (metres given as mm?)"
+        )
+    if p_cam_mm[2] <= 0.0:
+        raise DetectionError(
+            f"{source}: camera point {p_cam_mm.tolist()} mm has z <= 0, behind the camera "
+            "(camera frame: z points out of the lens)"
+        )
+
+
+def detection_from_point_mm(p_cam_mm: ArrayLike, source: str) -> Detection:
+    """A position-only detection from one camera-frame point in millimetres (``--xyz``, a pixel
+    of a cloud)."""
+    p = np.asarray(p_cam_mm, dtype=np.float64)
+    if p.shape != (3,):
+        raise DetectionError(f"{source}: camera point must have 3 coordinates, got shape {p.shape}")
+    _check_point_mm(p, source)
+    return Detection(
+        T_cam_obj=make_transform(np.eye(3), p / 1000.0), position_only=True, source=source
+    )
+
+
+def _rotation(orientation: Fields) -> NDArray[np.float64]:
+    """The one rotation given in an ``orientation`` mapping, as a validated 3x3."""
+    given = [key for key in ORIENTATION_KEYS if orientation.has(key)]
+    if len(given) != 1:
+        orientation.fail(
+            "", f"give exactly one of {', '.join(ORIENTATION_KEYS)}; got {given or 'none'}"
+        )
+    key = given[0]
+    try:
+        if key == "rotvec_rad":
+            return rotation_from_rotvec(orientation.vector(key, 3))
+        if key == "quaternion_xyzw":
+            return rotation_from_quaternion(orientation.vector(key, 4), "xyzw")
+        if key == "quaternion_wxyz":
+            return rotation_from_quaternion(orientation.vector(key, 4), "wxyz")
+        if key == "rpy_deg":
+            rpy = orientation.section(key, ("angles", "convention"))
+            return rotation_from_euler(rpy.vector("angles", 3), rpy.string("convention"), "deg")
+        return validate_rotation(orientation.matrix(key, 3, 3), orientation.path(key))
+    except TransformError as exc:
+        orientation.fail(key, str(exc))
+
+
+def load_detection(path: Path) -> Detection:
+    """Read a detection file (format in the module docstring); errors name the file and key."""
+    source = str(path)
+    top = Fields(
+        read_yaml_mapping(Path(path), DetectionError),
+        source=source,
+        prefix="",
+        allowed=("position_mm", "orientation"),
+        error=DetectionError,
+    )
+    p_mm = top.vector("position_mm", 3)
+    _check_point_mm(p_mm, f"{source}: position_mm")
+    if not top.has("orientation"):
+        return Detection(
+            make_transform(np.eye(3), p_mm / 1000.0), position_only=True, source=source
+        )
+    R = _rotation(top.section("orientation", ORIENTATION_KEYS))
+    return Detection(make_transform(R, p_mm / 1000.0), position_only=False, source=source)

@@ -1,0 +1,289 @@
+"""Pre-flight safety: pure checks, and ``preflight``, the one place that runs them before motion.
+
+Nothing here moves the robot. ``preflight`` runs every check for every target and refuses with a
+``PreflightRefusal`` listing all failures at once, so an operator fixes them in one go.
+``check_motion_command`` guards the speed and acceleration of each single motion command.
+
+Frames and units: targets are ``T_base_tcp`` (m); the workspace box is in mm in the base frame;
+tilt is the angle between the tool z axis and straight down (base -z), in degrees.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from handeye_pick.errors import SafetyRefusal
+from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.robot.port import RobotArm, RobotMode, RobotStatus, RuntimeState, SafetyMode
+
+if TYPE_CHECKING:  # config imports the caps below; the types are only needed for annotations
+    from handeye_pick.config import MotionConfig, WorkspaceConfig
+
+# ur_rtde refuses a moveL/stopL outside these (its own argument check).
+UR_MAX_SPEED_MPS = 3.0
+UR_MAX_ACCEL_MPS2 = 150.0
+
+# Stricter caps for a camera-guided pick: the target is only as good as the calibration and the
+# detection, so the arm moves slowly enough for an operator to hit the stop in time.
+MAX_SPEED_MPS = 1.0  # approach and retreat moves
+MAX_GRASP_SPEED_MPS = 0.25  # the final move onto the object (UR's default moveL speed)
+MAX_ACCEL_MPS2 = 4.0  # every move; UR's default moveL acceleration is 1.2 m/s^2
+
+
+@dataclass(frozen=True)
+class CheckResult:
+    """One pre-flight check on one target (or on the motion parameters, target "motion")."""
+
+    name: str  # workspace, tilt, safety_limits, ik, speed, grasp_speed, accel, stop_decel
+    target: str  # approach, grasp, retreat, ... or "motion"
+    passed: bool
+    detail: str  # what was measured against what limit
+
+
+class PreflightRefusal(SafetyRefusal):
+    """At least one pre-flight check failed; nothing moved. ``results`` holds every check."""
+
+    def __init__(self, results: list[CheckResult]) -> None:
+        failed = [r for r in results if not r.passed]
+        lines = "; ".join(f"{r.target} {r.name}: {r.detail}" for r in failed)
+        super().__init__(
+            f"pre-flight checks refused the pick, nothing moved ({len(failed)} of "
+            f"{len(results)} checks failed): {lines}"
+        )
+        self.results = results
+
+
+# --- motion parameters --------------------------------------------------------------------------
+
+
+def _speed_problem(what: str, value: float, maximum: float, unit: str) -> str | None:
+    """None when 0 < value <= maximum; "not > 0" also refuses NaN, and a 0 speed would make the
+    controller protective-stop."""
+    if 0.0 < value <= maximum:
+        return None
+    return f"{what} {value:g} {unit} outside (0, {maximum:g}] {unit}"
+
+
+def motion_problems(speed_mps: float, accel_mps2: float, max_speed_mps: float) -> list[str]:
+    """What is wrong with a moveL's speed and acceleration; empty when both are within caps.
+
+    ``max_speed_mps`` is the cap for this kind of move (``MAX_SPEED_MPS`` or
+    ``MAX_GRASP_SPEED_MPS``); ``MAX_ACCEL_MPS2`` applies to every move.
+    """
+    problems = [
+        _speed_problem("speed", speed_mps, min(max_speed_mps, UR_MAX_SPEED_MPS), "m/s"),
+        _speed_problem("acceleration", accel_mps2, MAX_ACCEL_MPS2, "m/s^2"),
+    ]
+    return [p for p in problems if p is not None]
+
+
+def check_motion_command(
+    speed_mps: float, accel_mps2: float, *, max_speed_mps: float = MAX_SPEED_MPS
+) -> None:
+    """Raise ``SafetyRefusal`` before sending a move whose speed or acceleration is out of caps.
+
+    The pick runner calls this for every moveL it sends (``max_speed_mps=MAX_GRASP_SPEED_MPS``
+    for the grasp move), so a parameter that never went through the config is still capped.
+    """
+    problems = motion_problems(speed_mps, accel_mps2, max_speed_mps)
+    if problems:
+        raise SafetyRefusal(f"motion command refused, nothing sent: {'; '.join(problems)}")
+
+
+def stop_decel_problem(stop_decel_mps2: float, accel_mps2: float) -> str | None:
+    """None when the stopL deceleration is at least the moves' acceleration and within ur_rtde's
+    limit: stopping after a fault must never be gentler than starting."""
+    if accel_mps2 <= stop_decel_mps2 <= UR_MAX_ACCEL_MPS2:
+        return None
+    return (
+        f"stop deceleration {stop_decel_mps2:g} m/s^2 outside [{accel_mps2:g} (the move "
+        f"acceleration), {UR_MAX_ACCEL_MPS2:g}] m/s^2"
+    )
+
+
+def _motion_checks(speeds: MotionConfig) -> list[CheckResult]:
+    checks = {
+        "speed": _speed_problem("speed", speeds.speed_mps, MAX_SPEED_MPS, "m/s"),
+        "grasp_speed": _speed_problem(
+            "grasp speed", speeds.grasp_speed_mps, MAX_GRASP_SPEED_MPS, "m/s"
+        ),
+        "accel": _speed_problem("acceleration", speeds.accel_mps2, MAX_ACCEL_MPS2, "m/s^2"),
+        "stop_decel": stop_decel_problem(speeds.stop_decel_mps2, speeds.accel_mps2),
+    }
+    values = {
+        "speed": f"{speeds.speed_mps:g} m/s",
+        "grasp_speed": f"{speeds.grasp_speed_mps:g} m/s",
+        "accel": f"{speeds.accel_mps2:g} m/s^2",
+        "stop_decel": f"{speeds.stop_decel_mps2:g} m/s^2",
+    }
+    return [
+        CheckResult(name, "motion", problem is None, problem or f"{values[name]} within caps")
+        for name, problem in checks.items()
+    ]
+
+
+# --- geometric checks on one target -------------------------------------------------------------
+
+
+def tilt_deg(T_base_tcp: Transform) -> float:
+    """Angle in degrees between the tool z axis and straight down (base -z); 0 = pointing down."""
+    z = T_base_tcp[:3, 2]
+    # atan2 keeps small angles exact where acos of a cosine near 1 would not.
+    return math.degrees(math.atan2(math.hypot(z[0], z[1]), -z[2]))
+
+
+def workspace_problem(T_base_tcp: Transform, workspace: WorkspaceConfig) -> str | None:
+    """Why the TCP position lies outside the workspace box, or None when it is inside."""
+    p_mm = T_base_tcp[:3, 3] * 1000.0
+    outside = []
+    for axis, value, low, high in zip("xyz", p_mm, workspace.min_mm, workspace.max_mm, strict=True):
+        if not value >= low:
+            outside.append(f"{axis} {value:.1f} mm below min {low:g} mm")
+        elif not value <= high:
+            outside.append(f"{axis} {value:.1f} mm above max {high:g} mm")
+    return ", ".join(outside) if outside else None
+
+
+def _target_checks(
+    name: str, T_base_tcp: Transform, workspace: WorkspaceConfig, arm: RobotArm
+) -> list[CheckResult]:
+    p_mm = np.round(T_base_tcp[:3, 3] * 1000.0, 1).tolist()
+    box = workspace_problem(T_base_tcp, workspace)
+    tilt = tilt_deg(T_base_tcp)
+    within = arm.is_pose_within_safety_limits(T_base_tcp)
+    reachable = arm.has_ik_solution(T_base_tcp)
+    pose = np.round(matrix_to_ur_pose(T_base_tcp), 4).tolist()
+    return [
+        CheckResult(
+            "workspace",
+            name,
+            box is None,
+            f"TCP at {p_mm} mm inside the box" if box is None else f"TCP at {p_mm} mm: {box}",
+        ),
+        CheckResult(
+            "tilt",
+            name,
+            tilt <= workspace.max_tilt_deg,
+            f"tool z {tilt:.1f} deg from straight down, limit {workspace.max_tilt_deg:g} deg",
+        ),
+        CheckResult(
+            "safety_limits",
+            name,
+            within,
+            f"controller safety limits {'accept' if within else 'refuse'} pose {pose}",
+        ),
+        CheckResult(
+            "ik",
+            name,
+            reachable,
+            f"controller {'finds' if reachable else 'finds no'} inverse kinematics for pose {pose}",
+        ),
+    ]
+
+
+def preflight(
+    targets: Mapping[str, Transform],
+    speeds: MotionConfig,
+    workspace: WorkspaceConfig,
+    arm: RobotArm,
+) -> list[CheckResult]:
+    """Run every check on every ``T_base_tcp`` target and on the motion parameters.
+
+    Returns all results when every check passed; otherwise raises ``PreflightRefusal`` carrying
+    all results (for the audit record). Only asks the controller, never moves it; a controller
+    that cannot answer raises its ``RobotError`` unchanged.
+    """
+    results = _motion_checks(speeds)
+    for name, T_base_tcp in targets.items():
+        results.extend(_target_checks(name, T_base_tcp, workspace, arm))
+    if not all(r.passed for r in results):
+        raise PreflightRefusal(results)
+    return results
+
+
+# --- is the cell ready to move? -----------------------------------------------------------------
+
+
+def _name(enum: type[SafetyMode] | type[RobotMode] | type[RuntimeState], value: int) -> str:
+    try:
+        return enum(value).name
+    except ValueError:
+        return f"unknown ({value})"
+
+
+def cell_readiness_problems(
+    status: RobotStatus,
+    T_flange_tcp_actual: Transform,
+    T_flange_tcp_configured: Transform,
+    *,
+    tolerance_mm: float,
+    tolerance_deg: float,
+) -> list[str]:
+    """Why the cell cannot start a pick, each with what to do on the pendant; empty when ready.
+
+    ``T_flange_tcp_actual`` is the TCP offset active on the controller, ``T_flange_tcp_configured``
+    the one in the cell config (both m); they must agree within the tolerances, or every target
+    would be off by their difference.
+    """
+    problems = []
+    safety = status.safety_mode
+    if not status.remote_control:
+        problems.append(
+            "robot is in local control: on the teach pendant switch to Remote Control "
+            "(profile icon, top right), then start again"
+        )
+    if status.emergency_stopped or safety in (
+        SafetyMode.SYSTEM_EMERGENCY_STOP,
+        SafetyMode.ROBOT_EMERGENCY_STOP,
+    ):
+        problems.append(
+            "emergency stop is active: make the cell safe, release the emergency stop button, "
+            "then power on and release the brakes on the pendant"
+        )
+    if status.protective_stopped or safety == SafetyMode.PROTECTIVE_STOP:
+        problems.append(
+            "protective stop is active: find and remove the cause, then press 'Enable robot' "
+            "on the pendant (nothing unlocks it automatically)"
+        )
+    if safety == SafetyMode.SAFEGUARD_STOP:
+        problems.append(
+            "safeguard stop is active: close the safeguard (door, light curtain) and reset it "
+            "as the cell requires"
+        )
+    if safety in (SafetyMode.VIOLATION, SafetyMode.FAULT, SafetyMode.RECOVERY):
+        problems.append(
+            f"safety system reports {_name(SafetyMode, safety)}: read the pendant's log, clear "
+            "the fault there (restart the safety system if it asks), then try again"
+        )
+    if status.robot_mode != RobotMode.RUNNING:
+        problems.append(
+            f"arm is not running (robot mode {_name(RobotMode, status.robot_mode)}): on the "
+            "pendant power it on and release the brakes (ON, then START)"
+        )
+    if status.runtime_state != RuntimeState.PLAYING:
+        problems.append(
+            "the remote control program is not running (runtime state "
+            f"{_name(RuntimeState, status.runtime_state)}): stop any program running on the "
+            "pendant and connect again"
+        )
+    offset_mm = 1000.0 * float(
+        np.linalg.norm(T_flange_tcp_actual[:3, 3] - T_flange_tcp_configured[:3, 3])
+    )
+    offset_deg = math.degrees(
+        rotation_angle_between(T_flange_tcp_actual[:3, :3], T_flange_tcp_configured[:3, :3])
+    )
+    if offset_mm > tolerance_mm or offset_deg > tolerance_deg:
+        actual = np.round(matrix_to_ur_pose(T_flange_tcp_actual), 4).tolist()
+        configured = np.round(matrix_to_ur_pose(T_flange_tcp_configured), 4).tolist()
+        problems.append(
+            f"active TCP offset {actual} (m, rad) differs from robot.tcp_offset {configured} by "
+            f"{offset_mm:.1f} mm and {offset_deg:.2f} deg (tolerance {tolerance_mm:g} mm, "
+            f"{tolerance_deg:g} deg): select the right TCP on the pendant (Installation > "
+            "General > TCP) or correct robot.tcp_offset in the config"
+        )
+    return problems
