@@ -1,0 +1,314 @@
+"""Cloud files: PLY laid out as Open3D and Zivid write it, our own PLY and .npy round trips."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+from plyfile import PlyData, PlyElement
+
+from handeye_pick.cloudio import PointCloud, read_cloud, write_cloud
+from handeye_pick.errors import DetectionError, InputError
+
+
+def random_xyz(n: int, dtype: type[np.floating[Any]], seed: int = 0) -> NDArray[Any]:
+    rng = np.random.default_rng(seed)
+    xyz = rng.uniform(-1500.0, 1500.0, (n, 3)).astype(dtype)
+    xyz[rng.random(n) < 0.25] = np.nan
+    return xyz
+
+
+def random_rgb(n: int, seed: int = 1) -> NDArray[np.uint8]:
+    return np.random.default_rng(seed).integers(0, 256, (n, 3), dtype=np.uint8)
+
+
+def write_ply_like(
+    path: Path,
+    xyz: NDArray[Any],
+    *,
+    coord_type: str,
+    extra: dict[str, tuple[str, NDArray[Any]]],
+    text: bool,
+    byte_order: str = "<",
+    comments: tuple[str, ...] = (),
+    obj_info: tuple[str, ...] = (),
+) -> None:
+    """Write a vertex-only PLY with plyfile: x y z of ``coord_type`` then ``extra`` properties."""
+    fields = [(name, coord_type) for name in "xyz"] + [(n, t) for n, (t, _) in extra.items()]
+    vertices = np.empty(len(xyz), dtype=fields)
+    for column, name in enumerate("xyz"):
+        vertices[name] = xyz[:, column]
+    for name, (_, values) in extra.items():
+        vertices[name] = values
+    element = PlyElement.describe(vertices, "vertex")
+    PlyData(
+        [element],
+        text=text,
+        byte_order=byte_order,
+        comments=list(comments),
+        obj_info=list(obj_info),
+    ).write(str(path))
+
+
+def colour_properties(rgb: NDArray[np.uint8]) -> dict[str, tuple[str, NDArray[Any]]]:
+    return {name: ("u1", rgb[:, k]) for k, name in enumerate(("red", "green", "blue"))}
+
+
+@pytest.mark.parametrize("text", [False, True], ids=["binary", "ascii"])
+@pytest.mark.parametrize("with_colours", [False, True], ids=["xyz", "xyz-rgb"])
+@pytest.mark.parametrize("with_normals", [False, True], ids=["", "normals"])
+def test_reads_open3d_layout(
+    tmp_path: Path, text: bool, with_colours: bool, with_normals: bool
+) -> None:
+    # Open3D's WritePointCloudToPLY: "comment Created by Open3D", double x y z, then double
+    # nx ny nz when it has normals, then uchar red green blue when it has colours.
+    xyz = random_xyz(50, np.float64)
+    rgb = random_rgb(50)
+    extra: dict[str, tuple[str, NDArray[Any]]] = {}
+    if with_normals:
+        extra |= {name: ("f8", np.full(50, 0.5)) for name in ("nx", "ny", "nz")}
+    if with_colours:
+        extra |= colour_properties(rgb)
+    path = tmp_path / "open3d.ply"
+    write_ply_like(
+        path, xyz, coord_type="f8", extra=extra, text=text, comments=("Created by Open3D",)
+    )
+    header = path.read_bytes().split(b"end_header")[0].decode()
+    assert header.startswith(
+        f"ply\nformat {'ascii' if text else 'binary_little_endian'} 1.0\n"
+        "comment Created by Open3D\nelement vertex 50\nproperty double x\n"
+    )
+
+    cloud = read_cloud(path)
+
+    assert cloud.xyz.dtype == np.float64
+    np.testing.assert_array_equal(cloud.xyz, xyz)  # NaN compares equal to NaN here
+    if with_colours:
+        assert cloud.rgb is not None
+        np.testing.assert_array_equal(cloud.rgb, rgb)
+    else:
+        assert cloud.rgb is None
+
+
+@pytest.mark.parametrize("text", [False, True], ids=["binary", "ascii"])
+def test_reads_zivid_layout_keeping_nan_rows_and_float32(tmp_path: Path, text: bool) -> None:
+    # Zivid writes an organized cloud as a float vertex list with NaN points, uchar colours with
+    # alpha; the obj_info lines are ignored and the pixel order is kept.
+    xyz = random_xyz(4 * 6, np.float32, seed=5)
+    rgb = random_rgb(4 * 6, seed=6)
+    extra = colour_properties(rgb) | {"alpha": ("u1", np.full(24, 255, dtype=np.uint8))}
+    path = tmp_path / "zivid.ply"
+    write_ply_like(
+        path, xyz, coord_type="f4", extra=extra, text=text, obj_info=("width 6", "height 4")
+    )
+
+    cloud = read_cloud(path)
+
+    assert cloud.xyz.dtype == np.float32
+    assert cloud.xyz.shape == (24, 3)
+    np.testing.assert_array_equal(cloud.xyz, xyz)
+    np.testing.assert_array_equal(np.isnan(cloud.xyz), np.isnan(xyz))
+    assert cloud.rgb is not None
+    np.testing.assert_array_equal(cloud.rgb, rgb)
+
+
+def test_big_endian_ply_comes_back_in_native_order(tmp_path: Path) -> None:
+    xyz = random_xyz(10, np.float32)
+    path = tmp_path / "big.ply"
+    write_ply_like(path, xyz, coord_type="f4", extra={}, text=False, byte_order=">")
+
+    cloud = read_cloud(path)
+
+    assert cloud.xyz.dtype == np.dtype(np.float32)
+    np.testing.assert_array_equal(cloud.xyz, xyz)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+@pytest.mark.parametrize("with_colours", [False, True], ids=["xyz", "xyz-rgb"])
+def test_own_ply_round_trip_flattens_row_major(
+    tmp_path: Path, dtype: type[np.floating[Any]], with_colours: bool
+) -> None:
+    xyz = random_xyz(3 * 5, dtype).reshape(3, 5, 3)
+    rgb = random_rgb(3 * 5).reshape(3, 5, 3) if with_colours else None
+    path = tmp_path / "out.ply"
+
+    write_cloud(path, PointCloud(xyz=xyz, rgb=rgb))
+    cloud = read_cloud(path)
+
+    assert path.read_bytes().startswith(b"ply\nformat binary_little_endian 1.0\n")
+    assert cloud.xyz.dtype == dtype
+    np.testing.assert_array_equal(cloud.xyz, xyz.reshape(-1, 3))
+    if rgb is None:
+        assert cloud.rgb is None
+    else:
+        assert cloud.rgb is not None
+        np.testing.assert_array_equal(cloud.rgb, rgb.reshape(-1, 3))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_npy_round_trip_keeps_organized_shape(
+    tmp_path: Path, dtype: type[np.floating[Any]]
+) -> None:
+    xyz = random_xyz(4 * 7, dtype).reshape(4, 7, 3)
+    path = tmp_path / "cloud.npy"
+
+    write_cloud(path, PointCloud(xyz=xyz))
+    cloud = read_cloud(path)
+
+    assert cloud.xyz.dtype == dtype
+    np.testing.assert_array_equal(cloud.xyz, xyz)
+    assert cloud.rgb is None
+
+
+def test_npy_write_drops_colours_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    path = tmp_path / "cloud.NPY"
+    with caplog.at_level(logging.WARNING):
+        write_cloud(path, PointCloud(xyz=random_xyz(5, np.float32), rgb=random_rgb(5)))
+
+    assert "colours not written" in caplog.text
+    assert path.is_file()  # np.save would have appended ".npy" to this name
+    assert read_cloud(path).rgb is None
+
+
+def test_big_endian_npy_comes_back_in_native_order(tmp_path: Path) -> None:
+    xyz = random_xyz(6, np.float64)
+    path = tmp_path / "big.npy"
+    np.save(path, xyz.astype(">f8"))
+
+    cloud = read_cloud(path)
+
+    assert cloud.xyz.dtype == np.dtype(np.float64)
+    np.testing.assert_array_equal(cloud.xyz, xyz)
+
+
+# --- bad files ----------------------------------------------------------------------------------
+
+
+def test_missing_file(tmp_path: Path) -> None:
+    with pytest.raises(DetectionError, match="file not found"):
+        read_cloud(tmp_path / "nothing.ply")
+
+
+def test_unsupported_suffix(tmp_path: Path) -> None:
+    path = tmp_path / "cloud.pcd"
+    path.write_text("# .PCD v0.7\n")
+    with pytest.raises(DetectionError, match=r"unsupported file type '\.pcd'"):
+        read_cloud(path)
+
+
+@pytest.mark.parametrize(
+    ("content", "message"),
+    [
+        (b"", "not a readable PLY"),
+        (b"solid cube\nfacet normal 0 0 1\n", "not a readable PLY"),
+        (
+            b"ply\nformat binary_little_endian 1.0\nelement vertex 5\nproperty float x\n"
+            b"property float y\nproperty float z\nend_header\n" + bytes(20),
+            "not a readable PLY",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"end_header\n1 2\n",
+            "lack z",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty int x\nproperty int y\n"
+            b"property int z\nend_header\n1 2 3\n",
+            "float or double",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty uchar red\nend_header\n1 2 3 4\n",
+            "not all of",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty float red\nproperty float green\nproperty float blue\n"
+            b"end_header\n1 2 3 0.5 0.5 0.5\n",
+            "must be uchar",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement face 0\nproperty list uchar int vertex_indices\n"
+            b"end_header\n",
+            "no 'vertex' element",
+        ),
+    ],
+    ids=[
+        "empty",
+        "not-ply",
+        "truncated",
+        "no-z",
+        "int-xyz",
+        "partial-colour",
+        "float-colour",
+        "no-vertex",
+    ],
+)
+def test_bad_ply(tmp_path: Path, content: bytes, message: str) -> None:
+    path = tmp_path / "bad.ply"
+    path.write_bytes(content)
+    with pytest.raises(DetectionError, match=message) as info:
+        read_cloud(path)
+    assert str(path) in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("array", "message"),
+    [
+        (np.zeros((5, 4), dtype=np.float32), r"shape \(H, W, 3\) or \(N, 3\)"),
+        (np.zeros(3, dtype=np.float32), r"shape \(H, W, 3\) or \(N, 3\)"),
+        (np.zeros((5, 3), dtype=np.int16), "float32 or float64"),
+    ],
+)
+def test_bad_npy_array(tmp_path: Path, array: NDArray[Any], message: str) -> None:
+    path = tmp_path / "bad.npy"
+    np.save(path, array)
+    with pytest.raises(DetectionError, match=message):
+        read_cloud(path)
+
+
+@pytest.mark.parametrize(
+    "write",
+    [
+        lambda path: np.save(path, np.array([{"x": 1}], dtype=object), allow_pickle=True),
+        lambda path: path.write_text("1 2 3\n"),
+    ],
+    ids=["pickled", "text"],
+)
+def test_unreadable_npy(tmp_path: Path, write: Any) -> None:
+    path = tmp_path / "bad.npy"
+    write(path)
+    with pytest.raises(DetectionError, match=r"not a readable \.npy"):
+        read_cloud(path)
+
+
+def test_write_into_missing_directory(tmp_path: Path) -> None:
+    cloud = PointCloud(xyz=random_xyz(3, np.float32))
+    for name in ("cloud.ply", "cloud.npy"):
+        with pytest.raises(InputError, match="cannot write"):
+            write_cloud(tmp_path / "missing" / name, cloud)
+
+
+def test_write_unsupported_suffix(tmp_path: Path) -> None:
+    with pytest.raises(InputError, match="unsupported file type"):
+        write_cloud(tmp_path / "cloud.xyz", PointCloud(xyz=random_xyz(3, np.float32)))
+
+
+@pytest.mark.parametrize(
+    ("xyz", "rgb", "message"),
+    [
+        (np.zeros((4, 2)), None, "xyz must have shape"),
+        (np.zeros((4, 3), dtype=np.int32), None, "float32 or float64"),
+        (np.zeros((4, 3)), np.zeros((5, 3), dtype=np.uint8), "rgb must be uint8"),
+        (np.zeros((4, 3)), np.zeros((4, 3)), "rgb must be uint8"),
+    ],
+)
+def test_point_cloud_checks_its_arrays(xyz: Any, rgb: Any, message: str) -> None:
+    with pytest.raises(InputError, match=message):
+        PointCloud(xyz=xyz, rgb=rgb)
