@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 
 from handeye_pick.errors import HandEyePickError, InputError, RobotError, SafetyRefusal
+from handeye_pick.progress import add_output_args, configure_logging
 
 EXIT_OK = 0
 EXIT_INTERNAL = 1
@@ -32,16 +33,19 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from handeye_pick.cli import transform
+    from handeye_pick.cli import pick, transform
 
     parser = _Parser(
         prog="handeye-pick",
         description="Camera-guided picks on Universal Robots arms. Frames are named T_a_b "
         "(pose of b in a); robot poses are UR vectors in m and rad; camera points are mm.",
     )
+    add_output_args(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for module in (transform,):
+    for module in (transform, pick):
         module.register(sub)
+    for command_parser in sub.choices.values():  # --quiet/--log-file also after the command
+        add_output_args(command_parser, with_defaults=False)
     return parser
 
 
@@ -58,6 +62,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; return its exit status (never raises for a known failure)."""
     try:
         args = build_parser().parse_args(argv)
+        configure_logging(args.log_file, quiet=args.quiet)
         status: int = args.run(args)
         return status
     except HandEyePickError as exc:
