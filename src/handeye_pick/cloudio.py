@@ -62,7 +62,8 @@ class PointCloud:
             )
 
 
-def _suffix(path: Path, operation: str, error: type[InputError]) -> str:
+def cloud_file_type(path: Path, operation: str, error: type[InputError] = InputError) -> str:
+    """The suffix of a cloud file name (".npy" or ".ply"), or ``error`` naming ``operation``."""
     suffix = path.suffix.lower()
     if suffix not in CLOUD_SUFFIXES:
         raise error(
@@ -84,7 +85,7 @@ def read_cloud(path: Path | str) -> PointCloud:
         DetectionError: the file is missing, unreadable, of another type, or lacks x/y/z.
     """
     path = Path(path)
-    suffix = _suffix(path, "read cloud", DetectionError)
+    suffix = cloud_file_type(path, "read cloud", DetectionError)
     if not path.is_file():
         raise DetectionError(f"read cloud {path}: file not found")
     if suffix == ".npy":
@@ -177,7 +178,7 @@ def write_cloud(path: Path | str, cloud: PointCloud) -> None:
         InputError: unsupported suffix, or the file cannot be written.
     """
     path = Path(path)
-    suffix = _suffix(path, "write cloud", InputError)
+    suffix = cloud_file_type(path, "write cloud")
     try:
         if suffix == ".npy":
             if cloud.rgb is not None:
