@@ -14,13 +14,15 @@ the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_
 from __future__ import annotations
 
 import logging
-import multiprocessing
-import signal
 import socket
+import subprocess
+import sys
+import threading
 import time
 from enum import IntEnum
-from multiprocessing.process import BaseProcess
+from multiprocessing.connection import Connection
 from types import TracebackType
+from typing import IO
 
 import numpy as np
 
@@ -40,7 +42,7 @@ from handeye_pick.robot.port import (
     RuntimeState,
     SafetyMode,
 )
-from handeye_pick.robot.worker import Failure, Hello, Sample, serve
+from handeye_pick.robot.worker import Failure, Hello, Sample
 
 log = logging.getLogger(__name__)
 
@@ -87,6 +89,14 @@ def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
         reader.readline()  # banner
         sock.sendall(b"stop\n")
         return reader.readline().strip()
+
+
+def _log_lines(stream: IO[bytes] | None, host: str) -> None:
+    """ur_rtde prints to stdout/stderr; keep that off our stdout (--json) and in the debug log."""
+    if stream is None:
+        return
+    for raw in stream:
+        log.debug("ur_rtde %s: %s", host, raw.decode(errors="replace").rstrip())
 
 
 def _to_ur_list(T: Transform) -> list[float]:
@@ -149,19 +159,24 @@ class URRtdeArm:
         self._stop_decel_mps2 = stop_decel_mps2
         self._pending_reply = False
         self._dead_reason: str | None = None
-        context = multiprocessing.get_context("spawn")
-        self._conn, child_conn = context.Pipe()
-        self._process: BaseProcess = context.Process(
-            target=serve, args=(child_conn, host, with_io), name=f"ur_rtde {host}", daemon=True
+        parent_socket, child_socket = socket.socketpair()
+        # A plain subprocess, not multiprocessing: no re-import of the caller's __main__, and
+        # its own session, so a Ctrl-C at the terminal reaches only this process, which then
+        # still has a working child to send stopL through.
+        self._process = subprocess.Popen(
+            [sys.executable, "-m", "handeye_pick.robot.worker", str(child_socket.fileno()), host]
+            + (["--io"] if with_io else []),
+            pass_fds=(child_socket.fileno(),),
+            stdin=subprocess.DEVNULL,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            start_new_session=True,
         )
-        # Blocked while starting: the child inherits the mask, so a Ctrl-C cannot kill it before
-        # it ignores SIGINT. The parent gets any pending SIGINT once unblocked.
-        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
-        try:
-            self._process.start()
-        finally:
-            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
-        child_conn.close()
+        child_socket.close()
+        self._conn = Connection(parent_socket.detach())
+        threading.Thread(
+            target=_log_lines, args=(self._process.stdout, host), name="ur_rtde output", daemon=True
+        ).start()
         log.debug("connecting to %s (ur_rtde in child pid %s)", host, self._process.pid)
         try:
             hello = self._receive("connect", connect_timeout_s)
@@ -291,7 +306,7 @@ class URRtdeArm:
 
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""
-        if self._process.exitcode is None and self._dead_reason is None:
+        if self._process.poll() is None and self._dead_reason is None:
             try:
                 self._call("close")
             except RobotError as exc:
@@ -403,9 +418,9 @@ class URRtdeArm:
         """Wait for one message from the child, bounded; a silent or dead child ends the session."""
         deadline = time.monotonic() + timeout_s
         while not self._conn.poll(0.05):
-            if not self._process.is_alive():
+            if self._process.poll() is not None:
                 self._dead_reason = (
-                    f"the ur_rtde process died (exit code {self._process.exitcode})"
+                    f"the ur_rtde process died (exit status {self._process.returncode})"
                 )
                 break
             if time.monotonic() > deadline:
@@ -423,10 +438,11 @@ class URRtdeArm:
         """End the child (given ``grace_s`` to leave by itself) and the pipe; session over."""
         if self._dead_reason is None:
             self._dead_reason = "the session was closed"
-        self._process.join(timeout=grace_s)
-        if self._process.exitcode is None:
+        try:
+            self._process.wait(timeout=grace_s)
+        except subprocess.TimeoutExpired:
             self._process.kill()
-            self._process.join(timeout=3.0)
+            self._process.wait(timeout=3.0)
         self._conn.close()
 
     def _connect_error(self, failure: Failure) -> RobotError | SafetyRefusal:

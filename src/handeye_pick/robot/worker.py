@@ -1,5 +1,8 @@
 """The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
 
+Run as ``python -m handeye_pick.robot.worker FD HOST [--io]`` by ``URRtdeArm``: FD is this end
+of a socket pair used as a ``multiprocessing.connection.Connection``.
+
 Why a child process: after a lost connection ur_rtde 1.6.5 reconnects by itself, loops and can
 segfault the process (ur_rtde_protocol.md section 9). Here that can only kill this child; the
 parent sees a dead pipe, reports a RobotConnectionError and stops the robot through a fresh
@@ -13,6 +16,7 @@ vectors (m, rad) in plain lists; the parent does all frame maths.
 from __future__ import annotations
 
 import signal
+import sys
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -145,11 +149,10 @@ class _Session:
 
 
 def serve(conn: Connection, host: str, with_io: bool) -> None:
-    """Child process entry point: connect, announce, answer requests until ``close`` or EOF."""
-    # The parent blocks SIGINT while starting this process, so no Ctrl-C can reach the
-    # interpreter before this line; ignore it for good, then unblock.
+    """Connect, announce, answer requests until ``close`` or EOF (the parent is gone)."""
+    # Only the parent decides when to stop the robot; its own session keeps a terminal's Ctrl-C
+    # away already, this keeps away one sent to the process group.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
     try:
         session = _Session(host, with_io)
     except Exception as exc:  # every failure goes back to the parent, typed there
@@ -180,3 +183,16 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
             conn.send(Failure(operation, type(exc).__name__, str(exc)))
         if operation == "close":
             return
+
+
+def main() -> None:
+    conn = Connection(int(sys.argv[1]))
+    serve(conn, sys.argv[2], with_io="--io" in sys.argv[3:])
+
+
+if __name__ == "__main__":
+    # Run the package's copy of this module, so replies unpickle as handeye_pick.robot.worker.*
+    # in the parent, not as __main__.*.
+    from handeye_pick.robot import worker
+
+    worker.main()
