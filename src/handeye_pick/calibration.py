@@ -125,7 +125,12 @@ def load_hand_eye(
     of what ``mode`` expects (``T_cam_flange`` or ``T_cam_base``). Raises ``CalibrationError``
     or ``TransformError`` (both exit status 2) naming the file and the defect.
     """
-    mode = HandEyeMode(mode)
+    try:
+        mode = HandEyeMode(mode)
+    except ValueError:
+        raise CalibrationError(
+            f"unknown hand-eye mode {mode!r}: expected 'eye-in-hand' or 'eye-to-hand'"
+        ) from None
     T_file = read_transform_file(path, units)
     # |t| of T and of its inverse are equal, so the check holds whichever way the file is written.
     _check_distance(T_file, units, _RANGES[mode], path, "--calibration-units")
@@ -194,7 +199,9 @@ class _OpenCVLoader(yaml.SafeLoader):
 
 def _construct_opencv_matrix(loader: yaml.SafeLoader, node: yaml.Node) -> _OpenCVMatrix:
     if not isinstance(node, yaml.MappingNode):
-        raise CalibrationError(f"!!opencv-matrix at {node.start_mark} must be a mapping")
+        raise yaml.constructor.ConstructorError(
+            None, None, "!!opencv-matrix must be a mapping (rows, cols, dt, data)", node.start_mark
+        )
     return _OpenCVMatrix(loader.construct_mapping(node, deep=True))
 
 
@@ -212,15 +219,25 @@ def _read_matrix(path: Path) -> tuple[list[Any], str | None]:
     first_line, _, rest = text.partition("\n")
     try:
         if _OPENCV_DIRECTIVE.match(first_line.strip()):
-            # PyYAML only knows "%YAML 1.1"-style directives; the line carries no data.
-            doc = yaml.load(rest, Loader=_OpenCVLoader)  # a SafeLoader subclass
+            # PyYAML refuses OpenCV's directive; the line carries no data. Blank it, so the line
+            # numbers in YAML errors stay right.
+            doc = yaml.load("\n" + rest, Loader=_OpenCVLoader)  # a SafeLoader subclass
             return _opencv_matrix(doc, path), None
         if path.suffix.lower() == ".json":
             return _plain_or_zivid_matrix(json.loads(text), path)
         return _plain_or_zivid_matrix(yaml.safe_load(text), path)
     except (yaml.YAMLError, json.JSONDecodeError) as exc:
-        detail = " ".join(str(exc).split())
-        raise CalibrationError(f"transform file {path} is not valid YAML/JSON: {detail}") from None
+        raise CalibrationError(
+            f"transform file {path} is not valid YAML/JSON: {_parse_problem(exc)}"
+        ) from None
+
+
+def _parse_problem(exc: Exception) -> str:
+    """One line: what the parser objected to and where."""
+    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
+        mark = exc.problem_mark
+        return f"{exc.problem} at line {mark.line + 1}, column {mark.column + 1}"
+    return " ".join(str(exc).split())
 
 
 def _opencv_matrix(doc: Any, path: Path) -> list[Any]:
