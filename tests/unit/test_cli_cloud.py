@@ -1,0 +1,208 @@
+"""``handeye-pick cloud`` end to end: files in, transformed files out, exit 2 on bad input."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+from numpy.typing import NDArray
+
+from handeye_pick.cli import main
+from handeye_pick.cloudio import PointCloud, read_cloud, write_cloud
+
+
+def write_zivid_matrix(path: Path, rows: list[list[float]]) -> Path:
+    """A 4x4 in Zivid's YAML format (translation in mm)."""
+    data = ",\n".join("    [" + ", ".join(repr(float(v)) for v in row) + "]" for row in rows)
+    path.write_text(f"__version__:\n  serializer: 1\n  data: 1\nFloatMatrix:\n  Data: [\n{data}]\n")
+    return path
+
+
+def camera_cloud(rows: int = 6, cols: int = 8) -> NDArray[np.float32]:
+    """An organized camera-frame cloud in mm (a table about 1.2 m away) with missing points."""
+    rng = np.random.default_rng(11)
+    xyz = np.stack(
+        [
+            rng.uniform(-300.0, 300.0, (rows, cols)),
+            rng.uniform(-200.0, 200.0, (rows, cols)),
+            rng.uniform(1100.0, 1300.0, (rows, cols)),
+        ],
+        axis=-1,
+    ).astype(np.float32)
+    xyz[rng.random((rows, cols)) < 0.2] = np.nan
+    return xyz
+
+
+def assert_transformed(result: NDArray[Any], expected: NDArray[np.float64]) -> None:
+    assert result.dtype == np.float32
+    assert result.shape == expected.shape
+    np.testing.assert_array_equal(np.isnan(result), np.isnan(expected))
+    # float32 coordinates near 1.5 m in mm: a few ulp is well under 1e-3 mm.
+    np.testing.assert_allclose(result, expected, rtol=0, atol=1e-3)
+
+
+@pytest.fixture
+def eye_to_hand_file(tmp_path: Path) -> Path:
+    # T_base_cam: camera 1.2 m above the base, looking down, x and y swapped (mm).
+    return write_zivid_matrix(
+        tmp_path / "EyeToHandTransform.yaml",
+        [[0, 1, 0, 500], [1, 0, 0, -40], [0, 0, -1, 1200], [0, 0, 0, 1]],
+    )
+
+
+@pytest.fixture
+def eye_in_hand_file(tmp_path: Path) -> Path:
+    # T_flange_cam: camera turned 90 degrees about the flange z axis, 50 mm aside, 100 mm out.
+    return write_zivid_matrix(
+        tmp_path / "EyeInHandTransform.yaml",
+        [[0, -1, 0, 0], [1, 0, 0, 50], [0, 0, 1, 100], [0, 0, 0, 1]],
+    )
+
+
+def test_eye_to_hand_npy(
+    tmp_path: Path, eye_to_hand_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    xyz = camera_cloud()
+    write_cloud(tmp_path / "cam.npy", PointCloud(xyz=xyz))
+
+    status = main(
+        [
+            "cloud",
+            "--mode",
+            "eye-to-hand",
+            "--calibration",
+            str(eye_to_hand_file),
+            str(tmp_path / "cam.npy"),
+            str(tmp_path / "base.npy"),
+        ]
+    )
+
+    assert status == 0
+    p = xyz.astype(np.float64)
+    # p_base = (y + 500, x - 40, 1200 - z), worked out by hand from the file above.
+    expected = np.stack([p[..., 1] + 500, p[..., 0] - 40, 1200 - p[..., 2]], axis=-1)
+    assert_transformed(read_cloud(tmp_path / "base.npy").xyz, expected)
+    missing = int(np.isnan(xyz).any(axis=-1).sum())
+    assert f"48 points ({missing} without data)" in capsys.readouterr().out
+
+
+def eye_in_hand_expected(xyz: NDArray[np.float32]) -> NDArray[np.float64]:
+    # T_base_flange: flange at (400, 100, 300) mm, tool pointing down (rotation pi about y).
+    # T_base_cam = T_base_flange @ T_flange_cam: R = [[0,1,0],[1,0,0],[0,0,-1]],
+    # t = (400, 150, 200) mm, so p_base = (y + 400, x + 150, 200 - z).
+    p = xyz.astype(np.float64)
+    return np.stack([p[..., 1] + 400, p[..., 0] + 150, 200 - p[..., 2]], axis=-1)
+
+
+def test_eye_in_hand_ply_with_ur_pose_keeps_colours(tmp_path: Path, eye_in_hand_file: Path) -> None:
+    xyz = camera_cloud().reshape(-1, 3)
+    rgb = np.random.default_rng(2).integers(0, 256, xyz.shape, dtype=np.uint8)
+    write_cloud(tmp_path / "cam.ply", PointCloud(xyz=xyz, rgb=rgb))
+
+    status = main(
+        [
+            "cloud",
+            "--mode",
+            "eye-in-hand",
+            "--calibration",
+            str(eye_in_hand_file),
+            "--robot-pose-ur",
+            "0.4",
+            "0.1",
+            "0.3",
+            "0",
+            str(np.pi),
+            "0",
+            str(tmp_path / "cam.ply"),
+            str(tmp_path / "base.ply"),
+        ]
+    )
+
+    assert status == 0
+    result = read_cloud(tmp_path / "base.ply")
+    assert_transformed(result.xyz, eye_in_hand_expected(xyz))
+    assert result.rgb is not None
+    np.testing.assert_array_equal(result.rgb, rgb)
+
+
+def test_eye_in_hand_robot_pose_file_and_metre_cloud(
+    tmp_path: Path, eye_in_hand_file: Path
+) -> None:
+    pose = write_zivid_matrix(
+        tmp_path / "RobotTransform.yaml",
+        [[-1, 0, 0, 400], [0, 1, 0, 100], [0, 0, -1, 300], [0, 0, 0, 1]],
+    )
+    xyz_mm = camera_cloud()
+    write_cloud(tmp_path / "cam_m.npy", PointCloud(xyz=xyz_mm / np.float32(1000.0)))
+
+    status = main(
+        [
+            "cloud",
+            "--mode=eye-in-hand",
+            f"--calibration={eye_in_hand_file}",
+            f"--robot-pose={pose}",
+            "--cloud-units=m",
+            str(tmp_path / "cam_m.npy"),
+            str(tmp_path / "base_m.ply"),
+        ]
+    )
+
+    assert status == 0
+    result_m = read_cloud(tmp_path / "base_m.ply").xyz
+    assert result_m.shape == (48, 3)  # PLY holds a vertex list
+    expected_mm = eye_in_hand_expected((xyz_mm / np.float32(1000.0)) * 1000).reshape(-1, 3)
+    assert_transformed(result_m * 1000, expected_mm)
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        ({"in": "missing.npy"}, "file not found"),
+        ({"out": "base.txt"}, "unsupported file type '.txt'"),
+        ({"in": "bad.npy"}, "expected shape (H, W, 3) or (N, 3)"),
+        ({"calibration": "missing.yaml"}, "missing.yaml"),
+        ({"mode": "eye-in-hand"}, "needs the flange pose"),
+        ({"out": None}, "OUT"),
+    ],
+    ids=[
+        "missing-in",
+        "bad-out-suffix",
+        "bad-in-shape",
+        "missing-calibration",
+        "no-pose",
+        "no-out",
+    ],
+)
+def test_bad_input_exits_2_with_one_line(
+    tmp_path: Path,
+    eye_to_hand_file: Path,
+    capsys: pytest.CaptureFixture[str],
+    change: dict[str, str | None],
+    message: str,
+) -> None:
+    write_cloud(tmp_path / "cam.npy", PointCloud(xyz=camera_cloud()))
+    np.save(tmp_path / "bad.npy", np.zeros((5, 4), dtype=np.float32))
+    calibration = tmp_path / change["calibration"] if "calibration" in change else eye_to_hand_file
+    argv = [
+        "cloud",
+        "--mode",
+        change.get("mode") or "eye-to-hand",
+        "--calibration",
+        str(calibration),
+        str(tmp_path / (change.get("in") or "cam.npy")),
+    ]
+    out_name = change.get("out", "base.npy")
+    if out_name is not None:
+        argv.append(str(tmp_path / out_name))
+
+    status = main(argv)
+
+    assert status == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ")
+    assert err.count("\n") == 1
+    assert message in err
+    assert not (tmp_path / "base.npy").exists()
+    assert not (tmp_path / "base.txt").exists()
