@@ -20,6 +20,8 @@ from handeye_pick.calibration import (
     load_hand_eye,
     read_robot_pose_file,
 )
+from handeye_pick.cloud import pick_point
+from handeye_pick.cloudio import read_cloud
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform, ur_pose_to_matrix
 
@@ -153,9 +155,6 @@ def camera_point_mm_from_args(args: argparse.Namespace) -> NDArray[np.float64] |
         return point
     if args.pixel is None:
         raise InputError(f"--cloud {args.cloud} needs --pixel COL ROW to choose the point")
-    from handeye_pick.cloud import pick_point
-    from handeye_pick.cloudio import read_cloud  # type: ignore[import-not-found]  # helper C, landing
-
     col, row = args.pixel
     return pick_point(read_cloud(args.cloud).xyz, col, row)
 
