@@ -295,8 +295,11 @@ class Fields:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             hint = ""
             if isinstance(value, str) and _parses_as_float(value):
-                # YAML 1.1 (PyYAML) reads 1e-3 as text: it needs a dot, 1.0e-3.
-                hint = " (YAML reads exponents without a dot as text: write 1.0e-3, not 1e-3)"
+                if "e" in value.lower():
+                    # YAML 1.1 (PyYAML) reads 1e-3 as text: it needs a dot, 1.0e-3.
+                    hint = " (YAML reads exponents without a dot as text: write 1.0e-3, not 1e-3)"
+                else:
+                    hint = " (remove the quotes around the number)"
             self.fail(key, f"expected a number, got {_describe(value)}{hint}")
         number = float(value)
         if not math.isfinite(number):

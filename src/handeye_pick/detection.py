@@ -61,9 +61,10 @@ def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
         raise DetectionError(f"{source}: camera point has non-finite values {p_cam_mm.tolist()}")
     distance = float(np.linalg.norm(p_cam_mm))
     if not MIN_DISTANCE_MM <= distance <= MAX_DISTANCE_MM:
+        hint = " (metres given as mm?)" if distance < MIN_DISTANCE_MM else ""
         raise DetectionError(
             f"{source}: camera point {p_cam_mm.tolist()} mm is {distance:g} mm from the camera, "
-            f"expected {MIN_DISTANCE_MM:g} to {MAX_DISTANCE_MM:g} mm (metres given as mm?)"
+            f"expected {MIN_DISTANCE_MM:g} to {MAX_DISTANCE_MM:g} mm{hint}"
         )
     if p_cam_mm[2] <= 0.0:
         raise DetectionError(

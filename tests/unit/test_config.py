@@ -1,0 +1,350 @@
+"""Cell config: the example loads, every bad value is refused with an error naming its key."""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+
+from handeye_pick.calibration import HandEyeMode
+from handeye_pick.config import CellConfig, GripperConfig, load_config
+from handeye_pick.errors import ConfigError
+from handeye_pick.robot.port import OutputBank
+
+ROOT = Path(__file__).resolve().parents[2]
+
+BASE: dict[str, Any] = {
+    "robot": {
+        "host": "192.168.1.10",
+        "tcp_offset": [0, 0, 0.15, 0, 0, 0],
+        "gripper": {"bank": "standard", "index": 3, "close_value": True, "settle_s": 0.2},
+    },
+    "hand_eye": {"mode": "eye-in-hand", "file": "calibration/hand_eye.yaml", "units": "mm"},
+    "grasp": {"approach_mm": 100, "retreat_mm": 80},
+    "motion": {"speed_mps": 0.25, "accel_mps2": 1.2, "grasp_speed_mps": 0.05},
+    "workspace": {"min_mm": [-800, -800, 0], "max_mm": [800, 800, 800], "max_tilt_deg": 60},
+    "audit": {"file": "picks.jsonl"},
+}
+
+
+def _set(data: dict[str, Any], dotted: str, value: object) -> None:
+    *parents, last = dotted.split(".")
+    for key in parents:
+        data = data[key]
+    data[last] = value
+
+
+def _delete(data: dict[str, Any], dotted: str) -> None:
+    *parents, last = dotted.split(".")
+    for key in parents:
+        data = data[key]
+    del data[last]
+
+
+@pytest.fixture
+def cell(tmp_path: Path) -> Path:
+    """A folder with a (dummy) calibration file next to where the config goes."""
+    (tmp_path / "calibration").mkdir()
+    (tmp_path / "calibration" / "hand_eye.yaml").write_text("not read by load_config\n")
+    return tmp_path
+
+
+def _write(folder: Path, data: dict[str, Any] | str) -> Path:
+    path = folder / "cell.yaml"
+    path.write_text(data if isinstance(data, str) else yaml.safe_dump(data))
+    return path
+
+
+def _load_with(folder: Path, **changes: object) -> CellConfig:
+    data = copy.deepcopy(BASE)
+    for dotted, value in changes.items():
+        _set(data, dotted.replace("__", "."), value)
+    return load_config(_write(folder, data))
+
+
+# --- good files -----------------------------------------------------------------------------------
+
+
+def test_repository_example_config_loads() -> None:
+    config = load_config(ROOT / "config" / "cell.example.yaml")
+    assert config.hand_eye.mode is HandEyeMode.EYE_IN_HAND
+    assert config.hand_eye.file.is_file()
+    assert config.grasp.approach_mm == 100.0
+    assert config.robot.gripper is not None
+
+
+def test_base_config_values_and_units(cell: Path) -> None:
+    config = load_config(_write(cell, BASE))
+    assert config.path == (cell / "cell.yaml").resolve()
+    assert config.robot.host == "192.168.1.10"
+    np.testing.assert_allclose(config.robot.T_flange_tcp[:3, 3], [0, 0, 0.15])  # metres
+    assert config.robot.gripper == GripperConfig(OutputBank.STANDARD, 3, True, 0.2)
+    assert config.hand_eye.units == "mm"
+    assert config.grasp.retreat_mm == 80.0
+    np.testing.assert_array_equal(config.grasp.T_obj_tcp, np.eye(4))
+    assert config.motion.speed_mps == 0.25
+    assert config.workspace.min_mm == (-800.0, -800.0, 0.0)
+    assert config.workspace.max_tilt_deg == 60.0
+
+
+def test_optional_keys_take_documented_defaults(cell: Path) -> None:
+    data = copy.deepcopy(BASE)
+    del data["robot"]["gripper"]
+    config = load_config(_write(cell, data))
+    assert config.robot.gripper is None
+    assert config.robot.tcp_offset_tolerance_mm == 1.0
+    assert config.robot.tcp_offset_tolerance_deg == 1.0
+    assert config.hand_eye.invert is False
+    assert config.motion.stop_decel_mps2 == 10.0
+    assert config.motion.timeout_margin_s == 5.0
+
+
+def test_tcp_offset_rotation_is_a_rotation_vector_in_radians(cell: Path) -> None:
+    config = _load_with(cell, robot__tcp_offset=[0.01, 0, 0.2, 0, 0, math.pi / 2])
+    np.testing.assert_allclose(
+        config.robot.T_flange_tcp[:3, :3], [[0, -1, 0], [1, 0, 0], [0, 0, 1]], atol=1e-12
+    )
+
+
+def test_object_T_tcp_is_a_ur_pose_vector(cell: Path) -> None:
+    config = _load_with(cell, grasp__object_T_tcp=[0, 0, 0.01, math.pi, 0, 0])
+    np.testing.assert_allclose(
+        config.grasp.T_obj_tcp,
+        [[1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.01], [0.0, 0.0, 0.0, 1.0]],
+        atol=1e-12,
+    )
+
+
+def test_paths_are_relative_to_the_config_file_not_the_working_directory(
+    cell: Path, tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    path = _write(cell, BASE)
+    monkeypatch.chdir(tmp_path_factory.mktemp("elsewhere"))
+    config = load_config(path)
+    assert config.hand_eye.file == (cell / "calibration" / "hand_eye.yaml").resolve()
+    assert config.audit.file == (cell / "picks.jsonl").resolve()
+
+
+def test_eye_to_hand_tool_gripper_and_invert(cell: Path) -> None:
+    config = _load_with(
+        cell,
+        hand_eye__mode="eye-to-hand",
+        hand_eye__units="m",
+        hand_eye__invert=True,
+        robot__gripper={"bank": "tool", "index": 1, "close_value": False},
+    )
+    assert config.hand_eye.mode is HandEyeMode.EYE_TO_HAND
+    assert config.hand_eye.units == "m"
+    assert config.hand_eye.invert is True
+    assert config.robot.gripper is not None
+    assert config.robot.gripper.bank is OutputBank.TOOL
+    assert config.robot.gripper.close_value is False
+    assert config.robot.gripper.settle_s == 0.5
+
+
+@pytest.mark.parametrize(
+    "changes",
+    [
+        {"motion.speed_mps": 1.0, "motion.accel_mps2": 4.0, "motion.grasp_speed_mps": 0.25},
+        {"workspace.max_tilt_deg": 0},
+        {"workspace.max_tilt_deg": 180},
+        {"grasp.approach_mm": 5, "grasp.retreat_mm": 500},
+        {"motion.stop_decel_mps2": 1.2},
+    ],
+)
+def test_limits_are_inclusive(cell: Path, changes: dict[str, object]) -> None:
+    _load_with(cell, **{k.replace(".", "__"): v for k, v in changes.items()})
+
+
+def test_config_is_frozen(cell: Path) -> None:
+    config = load_config(_write(cell, BASE))
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        config.motion.speed_mps = 2.0  # type: ignore[misc]
+
+
+# --- bad values: every error names its key ------------------------------------------------------
+
+BAD_VALUES = [
+    ("robot.host", 5),
+    ("robot.host", ""),
+    ("robot.host", None),
+    ("robot.tcp_offset", [0, 0, 150, 0, 0, 0]),  # mm in a m key
+    ("robot.tcp_offset", [0, 0, 0.15, 0, 0, 180]),  # degrees in a rad key
+    ("robot.tcp_offset", [0, 0, 0.15]),
+    ("robot.tcp_offset", "0 0 0.15 0 0 0"),
+    ("robot.tcp_offset", [0, 0, "x", 0, 0, 0]),
+    ("robot.tcp_offset_tolerance_mm", 0),
+    ("robot.tcp_offset_tolerance_mm", -1),
+    ("robot.tcp_offset_tolerance_mm", 100),
+    ("robot.tcp_offset_tolerance_deg", 45),
+    ("robot.tcp_offset_tolerance_deg", True),
+    ("robot.gripper", "tool 0"),
+    ("robot.gripper.bank", "both"),
+    ("robot.gripper.index", 8),
+    ("robot.gripper.index", -1),
+    ("robot.gripper.index", 1.0),
+    ("robot.gripper.index", True),
+    ("robot.gripper.close_value", "yes"),
+    ("robot.gripper.close_value", 1),
+    ("robot.gripper.settle_s", -0.1),
+    ("robot.gripper.settle_s", 60),
+    ("hand_eye.mode", "eye_in_hand"),
+    ("hand_eye.file", "calibration/missing.yaml"),
+    ("hand_eye.file", 3),
+    ("hand_eye.units", "cm"),
+    ("hand_eye.invert", "no"),
+    ("grasp.approach_mm", -10),
+    ("grasp.approach_mm", 0),
+    ("grasp.approach_mm", 0.1),  # metres in a mm key
+    ("grasp.approach_mm", 1000),
+    ("grasp.approach_mm", True),
+    ("grasp.approach_mm", "100"),
+    ("grasp.retreat_mm", -1),
+    ("grasp.object_T_tcp", [0, 0, 100, 0, 0, 0]),  # mm in a m key
+    ("grasp.object_T_tcp", [0, 0, 0, 180, 0, 0]),  # degrees in a rad key
+    ("motion.speed_mps", 0),
+    ("motion.speed_mps", -0.1),
+    ("motion.speed_mps", 1.5),  # above the pick cap
+    ("motion.speed_mps", 3.5),  # above ur_rtde's limit
+    ("motion.speed_mps", True),
+    ("motion.speed_mps", "fast"),
+    ("motion.speed_mps", "1e-1"),
+    ("motion.speed_mps", float("nan")),
+    ("motion.speed_mps", float("inf")),
+    ("motion.accel_mps2", 0),
+    ("motion.accel_mps2", 5),
+    ("motion.accel_mps2", 200),  # above ur_rtde's limit
+    ("motion.grasp_speed_mps", 0),
+    ("motion.grasp_speed_mps", 0.3),  # above the grasp cap
+    ("motion.stop_decel_mps2", 0.5),  # gentler than accel_mps2
+    ("motion.stop_decel_mps2", 151),
+    ("motion.timeout_margin_s", 0),
+    ("motion.timeout_margin_s", 500),
+    ("workspace.min_mm", [0, 0]),
+    ("workspace.min_mm", [-5000, 0, 0]),
+    ("workspace.max_mm", [800, 800, 5]),  # z extent under 10 mm
+    ("workspace.max_tilt_deg", -1),
+    ("workspace.max_tilt_deg", 181),
+    ("workspace.max_tilt_deg", "60"),
+    ("audit.file", "no-such-folder/picks.jsonl"),
+    ("audit.file", 5),
+]
+
+
+@pytest.mark.parametrize(("dotted", "value"), BAD_VALUES)
+def test_bad_value_is_refused_naming_the_key(cell: Path, dotted: str, value: object) -> None:
+    data = copy.deepcopy(BASE)
+    _set(data, dotted, value)
+    path = _write(cell, data)
+    with pytest.raises(ConfigError) as info:
+        load_config(path)
+    message = str(info.value)
+    assert str(path.resolve()) in message
+    assert f": {dotted}" in message
+
+
+def test_grasp_move_faster_than_travel_is_refused(cell: Path) -> None:
+    with pytest.raises(ConfigError, match=r"motion\.grasp_speed_mps: .*not be faster"):
+        _load_with(cell, motion__speed_mps=0.1, motion__grasp_speed_mps=0.2)
+
+
+def test_min_above_max_is_refused_on_max_mm(cell: Path) -> None:
+    with pytest.raises(ConfigError, match=r"workspace\.max_mm: z must be at least 10 mm above min"):
+        _load_with(cell, workspace__min_mm=[0, 0, 900])
+
+
+def test_metre_workspace_is_refused(cell: Path) -> None:
+    with pytest.raises(ConfigError, match=r"workspace\.max_mm.*metres given"):
+        _load_with(cell, workspace__min_mm=[-0.8, -0.8, 0], workspace__max_mm=[0.8, 0.8, 0.8])
+
+
+def test_yaml_exponent_without_dot_gets_a_hint(cell: Path) -> None:
+    path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 2.5e-1"))
+    assert load_config(path).motion.speed_mps == 0.25  # with the dot YAML reads a number
+    path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 25e-2"))
+    with pytest.raises(ConfigError, match=r"motion\.speed_mps: .*write 1\.0e-3"):
+        load_config(path)
+
+
+def test_quoted_number_gets_a_hint(cell: Path) -> None:
+    with pytest.raises(ConfigError, match=r"grasp\.approach_mm: .*remove the quotes"):
+        _load_with(cell, grasp__approach_mm="100")
+
+
+@pytest.mark.parametrize(
+    ("dotted", "value"),
+    [
+        ("extra", 1),
+        ("motion.speed", 0.25),
+        ("robot.gripper.colour", "red"),
+        ("hand_eye.unit", "mm"),
+    ],
+)
+def test_unknown_key_is_refused_naming_it(cell: Path, dotted: str, value: object) -> None:
+    data = copy.deepcopy(BASE)
+    _set(data, dotted, value)
+    with pytest.raises(ConfigError, match=rf": {dotted}: unknown key"):
+        load_config(_write(cell, data))
+
+
+def test_misspelt_key_suggests_the_right_one(cell: Path) -> None:
+    data = copy.deepcopy(BASE)
+    data["motion"]["sped_mps"] = data["motion"].pop("speed_mps")
+    with pytest.raises(
+        ConfigError, match=r"motion\.sped_mps: unknown key.*did you mean 'speed_mps'"
+    ):
+        load_config(_write(cell, data))
+
+
+@pytest.mark.parametrize(
+    "dotted",
+    [
+        "robot",
+        "robot.host",
+        "robot.tcp_offset",
+        "hand_eye.mode",
+        "hand_eye.file",
+        "hand_eye.units",
+        "grasp.approach_mm",
+        "grasp.retreat_mm",
+        "motion.speed_mps",
+        "motion.accel_mps2",
+        "motion.grasp_speed_mps",
+        "workspace.min_mm",
+        "workspace.max_tilt_deg",
+        "audit.file",
+    ],
+)
+def test_missing_required_key_is_refused_naming_it(cell: Path, dotted: str) -> None:
+    data = copy.deepcopy(BASE)
+    _delete(data, dotted)
+    with pytest.raises(ConfigError, match=rf": {dotted}: missing"):
+        load_config(_write(cell, data))
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("[1, 2, 3]\n", "top level: expected a mapping"),
+        ("", "top level: expected a mapping"),
+        ("robot: {host: a\n", "not valid YAML"),
+        ("motion:\n  speed_mps: 0.1\n  speed_mps: 0.9\n", "appears twice"),
+        ("robot: !!python/object:os.system {}\n", "not valid YAML"),
+    ],
+)
+def test_malformed_file_is_refused_naming_the_file(cell: Path, text: str, expected: str) -> None:
+    path = _write(cell, text)
+    with pytest.raises(ConfigError, match=expected) as info:
+        load_config(path)
+    assert str(path.resolve()) in str(info.value)
+
+
+def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_config(tmp_path / "nope.yaml")
