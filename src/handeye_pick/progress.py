@@ -22,6 +22,10 @@ from handeye_pick.robot.port import ProgressCallback
 
 log = logging.getLogger(__name__)
 
+PERCENT_EVERY_S = 0.25
+"""Shortest time between two percentage lines of one step: a slow move shows every tenth,
+a fast one only a few."""
+
 
 class Progress:
     """Writes progress lines to ``stream``; ``stream=None`` is silent (quiet or --json)."""
@@ -43,17 +47,18 @@ class Progress:
     def step(self, name: str) -> Iterator[ProgressCallback]:
         """Announce a step, time it, and yield a callback that reports its fraction done.
 
-        The callback prints ``name 40%`` once per new tenth; the end prints ``name done in
-        X.XX s`` or, when the block raises, ``name failed after X.XX s``.
+        The callback prints ``name 40%`` on a new tenth, at most every ``PERCENT_EVERY_S``; the
+        end prints ``name done in X.XX s`` or, when the block raises, ``name failed after X.XX s``.
         """
         self.say(name)
         start = time.monotonic()
-        shown = [0]  # tenths already printed
+        shown = {"tenths": 0, "at": start}
 
         def report(fraction: float) -> None:
             tenths = int(min(max(fraction, 0.0), 1.0) * 10)
-            if shown[0] < tenths < 10:
-                shown[0] = tenths
+            now = time.monotonic()
+            if shown["tenths"] < tenths < 10 and now - shown["at"] >= PERCENT_EVERY_S:
+                shown["tenths"], shown["at"] = tenths, now
                 self.say(f"{name} {tenths * 10}%")
 
         try:
