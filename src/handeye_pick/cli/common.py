@@ -8,6 +8,7 @@ call these instead of defining their own flags, so ``--calibration`` means the s
 from __future__ import annotations
 
 import argparse
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +27,15 @@ from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform, ur_pose_to_matrix
 
 UNITS = ("mm", "m")
+
+# argparse of Python 3.10 and 3.11 takes "-2e-3" for an option name, so a number copied from JSON
+# output fails; this is its own pattern for negative numbers, extended by an exponent.
+_NEGATIVE_NUMBER = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$")
+
+
+def accept_negative_exponents(parser: argparse.ArgumentParser) -> None:
+    """Let numeric arguments of ``parser`` be written like -2e-3 (it has no such option names)."""
+    parser._negative_number_matcher = _NEGATIVE_NUMBER
 
 
 def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True) -> None:
@@ -70,6 +80,7 @@ def add_robot_pose_args(parser: argparse.ArgumentParser) -> None:
 
     Both give ``T_base_flange``, the flange pose in the robot base frame at capture time.
     """
+    accept_negative_exponents(parser)
     group = parser.add_argument_group(
         "robot pose at capture time (eye-in-hand only): T_base_flange, the flange pose in the "
         "robot base frame"
@@ -100,6 +111,7 @@ def add_robot_pose_args(parser: argparse.ArgumentParser) -> None:
 
 def add_camera_point_args(parser: argparse.ArgumentParser, required: bool = True) -> None:
     """Add ``--xyz X Y Z`` (camera frame, mm) or ``--cloud FILE --pixel COL ROW``."""
+    accept_negative_exponents(parser)
     group = parser.add_argument_group("point in the camera frame (mm)")
     choice = group.add_mutually_exclusive_group(required=required)
     choice.add_argument(

@@ -11,6 +11,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from handeye_pick.cli.common import (
+    accept_negative_exponents,
     add_camera_point_args,
     add_hand_eye_args,
     add_robot_pose_args,
@@ -32,9 +33,6 @@ from handeye_pick.geometry import (
     validate_transform,
 )
 
-# argparse takes "-2e-3" for an option name; plain decimals like -0.002 are fine.
-_NEGATIVE_EXPONENT_NOTE = "Write negative numbers without an exponent: -0.002, not -2e-3."
-
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the ``point`` and ``convert`` commands to the top-level parser."""
@@ -46,7 +44,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "Eye-in-hand: T_base_cam = T_base_flange @ T_flange_cam, with T_base_flange the flange "
         "pose when the point was captured. Points in and out are mm; calibration and robot pose "
         "files are mm unless --calibration-units/--robot-pose-units m.",
-        epilog=_NEGATIVE_EXPONENT_NOTE,
     )
     add_hand_eye_args(point)
     add_robot_pose_args(point)
@@ -68,7 +65,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "euler: X Y Z A B C with --sequence and --angle-unit (the UR pendant's RPY is "
         "--sequence xyz --angle-unit rad). The translation is copied unchanged, in the unit "
         "it was given (UR vectors: m).",
-        epilog=_NEGATIVE_EXPONENT_NOTE,
     )
     convert.add_argument("--from", dest="source", required=True, choices=_FORMATS, help="input")
     convert.add_argument("--to", dest="target", required=True, choices=_FORMATS, help="output")
@@ -80,6 +76,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     convert.add_argument("--angle-unit", choices=("deg", "rad"), help="Euler angle unit")
     convert.add_argument("--json", action="store_true", help="print one JSON object")
     convert.add_argument("values", nargs="+", type=float, metavar="NUMBER", help="the pose")
+    accept_negative_exponents(convert)
     convert.set_defaults(run=run_convert)
 
 
