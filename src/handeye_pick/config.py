@@ -137,6 +137,8 @@ def _construct_unique_mapping(
 ) -> dict[object, object]:
     seen: set[object] = set()
     for key_node, _ in node.value:
+        if key_node.tag == "tag:yaml.org,2002:merge":
+            continue  # "<<: *anchor" merges; keys written next to it override on purpose
         key = loader.construct_object(key_node)
         if key in seen:
             raise yaml.constructor.ConstructorError(

@@ -13,7 +13,7 @@ import pytest
 import yaml
 
 from handeye_pick.calibration import HandEyeMode
-from handeye_pick.config import CellConfig, GripperConfig, load_config
+from handeye_pick.config import CellConfig, GripperConfig, load_config, read_yaml_mapping
 from handeye_pick.errors import ConfigError
 from handeye_pick.robot.port import OutputBank
 
@@ -348,3 +348,12 @@ def test_malformed_file_is_refused_naming_the_file(cell: Path, text: str, expect
 def test_missing_file_is_a_config_error(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="cannot read"):
         load_config(tmp_path / "nope.yaml")
+
+
+def test_yaml_merge_keys_may_override_but_plain_duplicates_may_not(tmp_path: Path) -> None:
+    path = tmp_path / "merge.yaml"
+    path.write_text("a: &x {b: 1, c: 2}\nd:\n  <<: *x\n  b: 3\n")
+    assert read_yaml_mapping(path, ConfigError) == {"a": {"b": 1, "c": 2}, "d": {"b": 3, "c": 2}}
+    path.write_text("d:\n  b: 1\n  b: 3\n")
+    with pytest.raises(ConfigError, match="key 'b' appears twice"):
+        read_yaml_mapping(path, ConfigError)
