@@ -131,7 +131,8 @@ def load_hand_eye(
         raise CalibrationError(
             f"unknown hand-eye mode {mode!r}: expected 'eye-in-hand' or 'eye-to-hand'"
         ) from None
-    T_file = read_transform_file(path, units)
+    data = _read_bytes(Path(path))
+    T_file = _parse_transform(data, Path(path), units, "--calibration-units")
     # |t| of T and of its inverse are equal, so the check holds whichever way the file is written.
     _check_distance(T_file, units, _RANGES[mode], path, "--calibration-units")
     T_cal = invert_transform(T_file) if invert else T_file
@@ -140,7 +141,7 @@ def load_hand_eye(
         mode=mode,
         T_cal=T_cal,
         path=Path(path),
-        sha256=file_sha256(path),
+        sha256=hashlib.sha256(data).hexdigest(),
         units=units,
         inverted=invert,
     )
@@ -149,8 +150,9 @@ def load_hand_eye(
 def read_robot_pose_file(path: Path, units: LengthUnit = "mm") -> Transform:
     """Read ``T_base_flange`` (flange pose in the robot base frame, e.g. Zivid's
     RobotTransform.yaml, mm by default) and return it in metres, unit-checked."""
-    T_base_flange = read_transform_file(path, units)
-    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, "--robot-pose-units")
+    flag = "--robot-pose-units"
+    T_base_flange = _parse_transform(_read_bytes(Path(path)), Path(path), units, flag)
+    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, flag)
     return T_base_flange
 
 
@@ -159,14 +161,7 @@ def read_transform_file(path: Path, units: LengthUnit) -> Transform:
 
     Validates the rigid transform (see ``geometry.validate_transform``); no magnitude check.
     """
-    scale = metres_per(units)
-    matrix, file_units = _read_matrix(Path(path))
-    if file_units is not None and file_units != units:
-        raise CalibrationError(
-            f"{path}: the file says units: {file_units} but the translation was declared as "
-            f"{units}; declare {file_units} (e.g. --calibration-units {file_units}) or fix the file"
-        )
-    return scale_translation(validate_transform(matrix, str(path)), scale)
+    return _parse_transform(_read_bytes(Path(path)), Path(path), units, "units")
 
 
 def write_zivid_transform(path: Path, T_m: Transform, units: LengthUnit = "mm") -> None:
@@ -208,12 +203,32 @@ def _construct_opencv_matrix(loader: yaml.SafeLoader, node: yaml.Node) -> _OpenC
 _OpenCVLoader.add_constructor("tag:yaml.org,2002:opencv-matrix", _construct_opencv_matrix)
 
 
-def _read_matrix(path: Path) -> tuple[list[Any], str | None]:
-    """The 4x4 as written in the file (not yet validated) and the file's own unit, if any."""
+def _read_bytes(path: Path) -> bytes:
     try:
-        text = path.read_text(encoding="utf-8")
+        return path.read_bytes()
     except OSError as exc:
         raise CalibrationError(f"cannot read transform file {path}: {exc.strerror}") from None
+
+
+def _parse_transform(data: bytes, path: Path, units: LengthUnit, flag: str) -> Transform:
+    """The validated transform in ``data`` (the bytes of ``path``), translation in metres.
+
+    ``flag`` names the setting that declares ``units``, for the error messages.
+    """
+    scale = metres_per(units)
+    matrix, file_units = _parse_matrix(data, path)
+    if file_units is not None and file_units != units:
+        raise CalibrationError(
+            f"{path}: the file says units: {file_units} but the translation was declared as "
+            f"{units}; declare {file_units} ({flag} {file_units}) or fix the file"
+        )
+    return scale_translation(validate_transform(matrix, str(path)), scale)
+
+
+def _parse_matrix(data: bytes, path: Path) -> tuple[list[Any], str | None]:
+    """The 4x4 as written in the file (not yet validated) and the file's own unit, if any."""
+    try:
+        text = data.decode("utf-8")
     except UnicodeDecodeError:
         raise CalibrationError(f"transform file {path} is not UTF-8 text") from None
     first_line, _, rest = text.partition("\n")
