@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import pytest
+
+from mocks.ur_controller import SimulatedController
 
 # ur_rtde's ports are fixed (30004, 29999, 30003), so every simulated controller gets its own
 # loopback address. 127.0.0.1 is left to the demo and to people running the mock by hand.
@@ -21,6 +24,23 @@ def next_loopback_host() -> str:
 def loopback_host() -> str:
     """A fresh 127.0.0.N address for one simulated controller."""
     return next_loopback_host()
+
+
+@pytest.fixture
+def sim_controller() -> Iterator[Callable[..., SimulatedController]]:
+    """Factory: `sim_controller(**kwargs)` starts a SimulatedController on a fresh loopback
+    address (`ctl.host`) and stops it at teardown. kwargs are SimulatedController's."""
+    started: list[SimulatedController] = []
+
+    def start(**kwargs: Any) -> SimulatedController:
+        ctl = SimulatedController(host=next_loopback_host(), **kwargs)
+        ctl.start()
+        started.append(ctl)
+        return ctl
+
+    yield start
+    for ctl in started:
+        ctl.stop()
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:

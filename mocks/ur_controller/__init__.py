@@ -1,0 +1,10 @@
+"""Simulated UR e-Series controller for tests and the demo: the real ur_rtde client talks to it.
+
+See README.md in this folder. Never imports handeye_pick: the simulator must not share pose
+maths with the code under test.
+"""
+
+from mocks.ur_controller.controller import ControllerSnapshot
+from mocks.ur_controller.simulated import SimulatedController
+
+__all__ = ["ControllerSnapshot", "SimulatedController"]

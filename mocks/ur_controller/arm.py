@@ -1,0 +1,203 @@
+"""The simulated arm: joints, active TCP offset, payload and the motion in progress.
+
+Frames: `base` is the controller's base frame, `flange` the tool flange, `tcp` the flange moved by
+the active TCP offset (T_flange_tcp, set on the pendant or by setTcp). Poses are UR vectors
+[x, y, z, rx, ry, rz] (m, rad); joints q are 6 angles (rad). Tracking is perfect: target and
+actual values are the same.
+
+moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal profile over the
+translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
+previous joints each cycle. moveJ interpolates joints with a trapezoidal profile over the largest
+joint travel. Stops halt the arm where it is (no deceleration phase).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
+
+from mocks.ur_controller import kinematics as kin
+
+Vector = NDArray[np.float64]
+
+# The TCP must move at least this far (m) for moveL's speed to mean m/s; below it, rad/s.
+_MIN_TRANSLATION_M = 1e-6
+
+
+class UnreachableError(Exception):
+    """A motion target or a point on the way has no joint solution within the limits."""
+
+
+@dataclass
+class Motion:
+    """One move in progress. `index` counts motion commands from 1 (for move:K faults)."""
+
+    index: int
+    linear: bool
+    distance: float  # m (linear), rad (linear pure rotation, or joint: largest joint travel)
+    speed: float
+    accel: float
+    duration_s: float
+    q_start: Vector
+    q_target: Vector
+    T_base_tcp_start: Vector = field(default_factory=lambda: np.eye(4))
+    T_base_tcp_target: Vector = field(default_factory=lambda: np.eye(4))
+    elapsed_s: float = 0.0
+
+    @property
+    def fraction(self) -> float:
+        """Fraction of the move's duration elapsed, 0..1."""
+        return 1.0 if self.duration_s <= 0.0 else min(1.0, self.elapsed_s / self.duration_s)
+
+
+class Arm:
+    """Joint state and motion model of one simulated UR arm (see module docstring)."""
+
+    def __init__(self, model: kin.URModel, q: Vector, tcp_offset: Vector, speed_factor: float,
+                 instant: bool):
+        if not kin.within_limits(model, q):
+            raise ValueError(f"initial joints {q.tolist()} are outside the {model.name} limits")
+        self.model = model
+        self.q = q.astype(np.float64)
+        self.qd = np.zeros(6)
+        self.tcp_offset = tcp_offset.astype(np.float64)
+        self.speed_factor = speed_factor
+        self.instant = instant
+        self.payload_kg = 0.0
+        self.payload_cog_m = np.zeros(3)
+        self.motion: Motion | None = None
+        self.motion_count = 0
+        self._update_poses()
+        self.tcp_speed = np.zeros(6)
+
+    # --- derived poses ---------------------------------------------------------------------
+
+    def _update_poses(self) -> None:
+        self.T_base_flange = kin.forward(self.model, self.q)
+        self.T_base_tcp = kin.tcp_from_flange(self.T_base_flange, self.tcp_offset)
+        self.flange_pose = kin.matrix_to_pose(self.T_base_flange)
+        self.tcp_pose = kin.matrix_to_pose(self.T_base_tcp)
+
+    def set_tcp(self, tcp_offset: Vector) -> None:
+        """Make `tcp_offset` (T_flange_tcp as a UR vector) the active TCP."""
+        self.tcp_offset = tcp_offset.astype(np.float64)
+        self._update_poses()
+
+    def tcp_from_q(self, q: Vector, tcp_offset: Vector | None = None) -> Vector:
+        """T_base_tcp at joints q, with the active TCP unless one is given."""
+        offset = self.tcp_offset if tcp_offset is None else tcp_offset
+        return kin.tcp_from_flange(kin.forward(self.model, q), offset)
+
+    def ik_tcp(self, tcp_pose: Vector, q_near: Vector | None = None) -> Vector | None:
+        """Joints reaching a TCP pose (UR vector, active TCP) nearest q_near (default: now)."""
+        T_base_flange = kin.flange_from_tcp(kin.pose_to_matrix(tcp_pose), self.tcp_offset)
+        return kin.inverse(self.model, T_base_flange, self.q if q_near is None else q_near)
+
+    def pose_within_limits(self, tcp_pose: Vector) -> bool:
+        """Reachable by some IK solution inside the joint limits, with the active TCP."""
+        T_base_flange = kin.flange_from_tcp(kin.pose_to_matrix(tcp_pose), self.tcp_offset)
+        return kin.reachable(self.model, T_base_flange)
+
+    # --- motions ---------------------------------------------------------------------------
+
+    def move_linear(self, tcp_pose: Vector, speed: float, accel: float) -> Motion:
+        """Start a straight-line TCP move; raises UnreachableError if the target is unreachable."""
+        q_target = self.ik_tcp(tcp_pose)
+        if q_target is None:
+            raise UnreachableError(f"moveL target {np.round(tcp_pose, 6).tolist()} is unreachable")
+        T_target = kin.pose_to_matrix(tcp_pose)
+        translation = float(np.linalg.norm(T_target[:3, 3] - self.T_base_tcp[:3, 3]))
+        if translation >= _MIN_TRANSLATION_M:
+            distance = translation
+        else:
+            R_rel = self.T_base_tcp[:3, :3].T @ T_target[:3, :3]
+            distance = float(np.linalg.norm(Rotation.from_matrix(R_rel).as_rotvec()))
+        return self._start(True, distance, speed, accel, q_target, T_target)
+
+    def move_joint(self, q_target: Vector, speed: float, accel: float) -> Motion:
+        """Start a joint-space move; raises UnreachableError if q_target is outside the limits."""
+        if not kin.within_limits(self.model, q_target):
+            raise UnreachableError(f"moveJ target {np.round(q_target, 6).tolist()} is outside "
+                                   f"the {self.model.name} joint limits")
+        distance = float(np.max(np.abs(q_target - self.q)))
+        return self._start(False, distance, speed, accel, q_target, self.tcp_from_q(q_target))
+
+    def _start(self, linear: bool, distance: float, speed: float, accel: float, q_target: Vector,
+               T_target: Vector) -> Motion:
+        if speed <= 0.0 or accel <= 0.0:
+            raise UnreachableError(f"speed {speed} and acceleration {accel} must be > 0 to move")
+        self.motion_count += 1
+        self.motion = Motion(
+            index=self.motion_count, linear=linear, distance=distance, speed=speed, accel=accel,
+            duration_s=kin.trapezoid(distance, speed, accel), q_start=self.q.copy(),
+            q_target=q_target, T_base_tcp_start=self.T_base_tcp.copy(), T_base_tcp_target=T_target,
+        )
+        return self.motion
+
+    def halt(self) -> None:
+        """Stop where the arm is now."""
+        self.motion = None
+        self.qd = np.zeros(6)
+        self.tcp_speed = np.zeros(6)
+
+    def advance(self, dt_s: float) -> Motion | None:
+        """Advance the motion by dt_s of wall time; returns the motion advanced (None if idle).
+
+        Raises UnreachableError (and halts) when a point on a linear path has no IK solution.
+        """
+        motion = self.motion
+        if motion is None:
+            return None
+        if self.instant:
+            motion.elapsed_s += motion.duration_s / 2  # done within two cycles
+        else:
+            motion.elapsed_s += dt_s * self.speed_factor
+        if motion.fraction >= 1.0:
+            q_new = motion.q_target
+        elif motion.distance <= 0.0:
+            q_new = motion.q_start
+        else:
+            s = kin.trapezoid_fraction(motion.elapsed_s, motion.distance, motion.speed,
+                                       motion.accel)
+            q_new = self._q_along(motion, s)
+        T_tcp_before = self.T_base_tcp
+        q_before = self.q
+        self.q = q_new
+        self._update_poses()
+        if dt_s > 0.0:
+            self.qd = (self.q - q_before) / dt_s
+            self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
+        if motion.fraction >= 1.0:
+            self.motion = None
+            self.qd = np.zeros(6)
+            self.tcp_speed = np.zeros(6)
+        return motion
+
+    def _q_along(self, motion: Motion, s: float) -> Vector:
+        if not motion.linear:
+            return motion.q_start + s * (motion.q_target - motion.q_start)
+        T_base_tcp = kin.interpolate_pose(motion.T_base_tcp_start, motion.T_base_tcp_target, s)
+        T_base_flange = kin.flange_from_tcp(T_base_tcp, self.tcp_offset)
+        q = kin.inverse(self.model, T_base_flange, self.q)
+        if q is None:
+            self.halt()
+            raise UnreachableError(
+                f"moveL path point {kin.matrix_to_pose(T_base_tcp).round(6).tolist()} "
+                f"({s:.0%} of the way) has no IK solution within the joint limits"
+            )
+        return q
+
+
+def _twist(T0: Vector, T1: Vector, dt_s: float) -> Vector:
+    """Linear (m/s) and angular (rad/s) velocity in base between two poses dt_s apart."""
+    omega = Rotation.from_matrix(T1[:3, :3] @ T0[:3, :3].T).as_rotvec() / dt_s
+    return np.concatenate([(T1[:3, 3] - T0[:3, 3]) / dt_s, omega])
+
+
+def default_q() -> Vector:
+    """UR's elbow-up, tool-down home (ur5e: flange at [-0.49, -0.13, 0.49] m, z down)."""
+    return np.array([0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0])

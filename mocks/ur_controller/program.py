@@ -1,0 +1,287 @@
+"""Emulation of ur_rtde's control script (rtde_control.script), one control cycle at a time.
+
+Register protocol (ur_rtde_protocol.md section 6): the client writes a command id to
+input_int_register_0 (+offset) and arguments to the other input registers; the script answers on
+output_int_register_0: 1 = ready, 2 = done with the command. Per cycle (section 6.2):
+
+- realtime ids are processed every cycle while they stay in the register, then 1 is written;
+- 0 clears the `executing` latch and writes 1;
+- any other id is processed once (edge-triggered, a new id is ignored until a 0 was seen); a
+  synchronous motion blocks the script until it ends, then 2 is written;
+- 255 ends the program without writing 2.
+
+Output registers written in a cycle reach clients with the next RTDE sample.
+A command this emulator does not implement stops the program, as a URScript runtime error would,
+and is logged loudly: the client sees `runtime_state` leave PLAYING and returns False instead of
+waiting 300 s for an answer that never comes.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from mocks.ur_controller import kinematics as kin
+from mocks.ur_controller.arm import Arm, Motion, UnreachableError, Vector
+from mocks.ur_controller.record import CommandRecord
+
+log = logging.getLogger("mocks.ur_controller")
+
+READY = 1
+DONE = 2
+STOP_SCRIPT = 255
+# Processed every cycle while present (the script's realtime branch plus 1.6.5's additions).
+REALTIME_IDS = frozenset({6, 9, 10, 11, 24, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71})
+MOTION_KINDS = {1: "moveJ", 2: "moveJ_IK", 3: "moveL", 4: "moveL_FK"}
+
+
+class Registers:
+    """The controller's RTDE general-purpose registers (48 of each kind)."""
+
+    def __init__(self) -> None:
+        self.in_int = [0] * 48
+        self.in_double = [0.0] * 48
+        self.out_int = [0] * 48
+        self.out_double = [0.0] * 48
+        # Controller time of the last client write to each input int register (watchdog).
+        self.in_int_written_s = [0.0] * 48
+
+
+class ControlScript:
+    """The running `rtde_control` program: call `cycle()` once per control cycle."""
+
+    def __init__(self, registers: Registers, arm: Arm, record: CommandRecord, reg_offset: int,
+                 protective_stop: Callable[[str], None], now_s: float):
+        self._reg = registers
+        self._arm = arm
+        self._commands = record
+        self._off = reg_offset
+        self._protective_stop = protective_stop
+        self.running = True
+        self.ack_delay_s = 0.0  # fault slow:SECONDS: extra time before each DONE
+        self._executing = False
+        self._blocked_until_s: float | None = None  # a synchronous command is still running
+        self._blocking_motion: Motion | None = None
+        self._async_motion: Motion | None = None
+        self._async_write_count = 0
+        self._async_op_id = 0
+        self._watchdog_hz: float | None = None
+        self._now_s = now_s
+        self._write_async_word(-1)  # reset_async_progress(): "finished"
+        self._set_out_int(0, READY)
+
+    # --- register access (offset applied) ---------------------------------------------------
+
+    def _in_int(self, n: int) -> int:
+        return self._reg.in_int[self._off + n]
+
+    def _in_doubles(self, first: int, count: int = 6) -> Vector:
+        return np.array(self._reg.in_double[self._off + first : self._off + first + count])
+
+    def _set_out_int(self, n: int, value: int) -> None:
+        self._reg.out_int[self._off + n] = value
+
+    def _set_out_doubles(self, values: Vector) -> None:
+        for i, value in enumerate(values):
+            self._reg.out_double[self._off + i] = float(value)
+
+    def _write_async_word(self, progress: int) -> None:
+        """The async progress word (section 6.6): progress >= 0 means running."""
+        self._async_write_count = (self._async_write_count + 1) % 128
+        if progress == 0:
+            self._async_op_id = (self._async_op_id + 1) % 128
+        word = self._async_write_count * 65536 + self._async_op_id * 16777216
+        if progress >= 0:
+            word += min(progress, 32767) + 32768
+        self._set_out_int(2, word)
+
+    # --- the main loop, one cycle -----------------------------------------------------------
+
+    def cycle(self, now_s: float) -> None:
+        """One pass of the script's main loop (the `sync()` at its end is the cycle boundary)."""
+        self._now_s = now_s
+        if not self.running:
+            return
+        if self._watchdog_starved(now_s):
+            return
+        if self._async_motion is not None and self._arm.motion is not self._async_motion:
+            self._async_motion = None  # the move thread ran to its end or was stopped
+            self._write_async_word(-1)
+        if self._blocked_until_s is not None:
+            self._finish_command(now_s, self._blocked_until_s)
+            return
+        cmd = self._in_int(0)
+        if cmd in REALTIME_IDS:
+            self._process(cmd)
+            if self.running:
+                self._set_out_int(0, READY)
+        elif cmd == 0:
+            self._executing = False
+            self._set_out_int(0, READY)
+        elif not self._executing:
+            self._executing = True
+            self._process(cmd)
+            if self.running and cmd != STOP_SCRIPT:
+                self._blocked_until_s = now_s + self.ack_delay_s
+                self._finish_command(now_s, self._blocked_until_s)
+
+    def _finish_command(self, now_s: float, due_s: float) -> None:
+        """Write DONE once a synchronous motion has ended and `due_s` (fault slow) has passed."""
+        if self._blocking_motion is not None and self._arm.motion is self._blocking_motion:
+            return  # still inside a synchronous movel/movej
+        if now_s < due_s:
+            return  # fault slow: the answer comes late
+        self._blocked_until_s = None
+        self._blocking_motion = None
+        self._set_out_int(0, DONE)
+
+    def stop(self, reason: str) -> None:
+        """End the program (dashboard stop, pendant stop, 255, runtime error, watchdog)."""
+        if self.running:
+            log.info("rtde_control program stopped: %s", reason)
+        self.running = False
+        if self._async_motion is not None:
+            self._async_motion = None
+            self._write_async_word(-1)
+        self._arm.halt()
+
+    def _watchdog_starved(self, now_s: float) -> bool:
+        if self._watchdog_hz is None:
+            return False
+        silence_s = now_s - self._reg.in_int_written_s[self._off]
+        if silence_s <= 1.0 / self._watchdog_hz:
+            return False
+        self.stop(f"RTDE watchdog: input_int_register_{self._off} not written for "
+                  f"{silence_s:.3f} s, minimum frequency {self._watchdog_hz} Hz")
+        return True
+
+    # --- commands -----------------------------------------------------------------------------
+
+    def _process(self, cmd: int) -> None:
+        try:
+            self._dispatch(cmd)
+        except UnreachableError as exc:
+            # A real controller raises a URScript runtime error here and the program stops.
+            self.stop(f"command {cmd}: {exc}")
+
+    def _dispatch(self, cmd: int) -> None:
+        arm = self._arm
+        if cmd in MOTION_KINDS:
+            self._move(cmd)
+        elif cmd in (33, 34):
+            self._stop_move("stopL" if cmd == 33 else "stopJ")
+        elif cmd == 15:
+            self._record({"kind": "speedStop", "accel": self._in_doubles(0, 1)[0]})
+            self._stop_async_move()
+            arm.halt()
+        elif cmd == 17:
+            mass, cog = self._in_doubles(0, 1)[0], self._in_doubles(1, 3)
+            arm.payload_kg = float(mass)
+            if np.any(cog != 0.0):  # a zero CoG keeps the current one, as the script does
+                arm.payload_cog_m = cog
+        elif cmd == 29:
+            arm.set_tcp(self._in_doubles(0))
+        elif cmd == 31:
+            self._record({"kind": "triggerProtectiveStop"})
+            self._protective_stop("triggerProtectiveStop() from the client")
+        elif cmd == 35:
+            self._watchdog_hz = float(self._in_doubles(0, 1)[0])
+            log.info("RTDE watchdog on input_int_register_%d at %s Hz", self._off,
+                     self._watchdog_hz)
+        elif cmd == 36:
+            self._set_out_int(1, int(arm.pose_within_limits(self._in_doubles(0))))
+        elif cmd == 37:
+            self._set_out_int(1, int(kin.within_limits(arm.model, self._in_doubles(0))))
+        elif cmd == 39:
+            T = kin.pose_to_matrix(self._in_doubles(0)) @ kin.pose_to_matrix(self._in_doubles(6))
+            self._set_out_doubles(kin.matrix_to_pose(T))
+        elif cmd == 40:
+            self._set_out_doubles(arm.tcp_offset)
+        elif cmd == 43:
+            self._set_out_doubles(arm.tcp_pose)
+        elif cmd == 44:
+            # The script always reads a TCP from D6-D11; getForwardKinematics(q) leaves whatever
+            # an earlier command wrote there (faithful to the real script).
+            T = arm.tcp_from_q(self._in_doubles(0), self._in_doubles(6))
+            self._set_out_doubles(kin.matrix_to_pose(T))
+        elif cmd in (30, 46):
+            q_near = self._in_doubles(6) if cmd == 30 else None
+            q = arm.ik_tcp(self._in_doubles(0), q_near)
+            if q is None:
+                raise UnreachableError(f"get_inverse_kin: no solution for "
+                                       f"{self._in_doubles(0).round(6).tolist()}")
+            self._set_out_doubles(q)
+        elif cmd == 47:
+            self._set_out_int(1, int(arm.motion is None))
+        elif cmd == 58:
+            self._set_out_doubles(arm.flange_pose)
+        elif cmd in (60, 61):
+            q_near = self._in_doubles(6) if cmd == 61 else None
+            self._set_out_int(1, int(arm.ik_tcp(self._in_doubles(0), q_near) is not None))
+        elif cmd == STOP_SCRIPT:
+            self.stop("stop script command (255) from the client")
+        else:
+            log.error(
+                "SIMULATED CONTROLLER: command id %d is not implemented; stopping the program "
+                "as a URScript runtime error would (the client call returns False)", cmd,
+            )
+            self.stop(f"unimplemented command id {cmd}")
+
+    def _record(self, entry: dict[str, Any]) -> None:
+        self._commands.add({"t": self._now_s, **{key: _plain(v) for key, v in entry.items()}})
+
+    def _move(self, cmd: int) -> None:
+        target = self._in_doubles(0)
+        speed, accel = (float(v) for v in self._in_doubles(6, 2))
+        is_async = self._in_int(1) == 1
+        kind = MOTION_KINDS[cmd]
+        self._record({"kind": kind, "target": target, "speed": speed, "accel": accel,
+                      "async": is_async})
+        self._stop_async_move()
+        arm = self._arm
+        if kind == "moveJ":
+            motion = arm.move_joint(target, speed, accel)
+        elif kind == "moveJ_IK":
+            q = arm.ik_tcp(target)
+            if q is None:
+                raise UnreachableError(f"moveJ_IK target {target.round(6).tolist()} has no IK "
+                                       f"solution")
+            motion = arm.move_joint(q, speed, accel)
+        elif kind == "moveL":
+            motion = arm.move_linear(target, speed, accel)
+        else:
+            motion = arm.move_linear(kin.matrix_to_pose(arm.tcp_from_q(target)), speed, accel)
+        if is_async:
+            self._async_motion = motion
+            self._write_async_word(0)
+        else:
+            self._blocking_motion = motion
+
+    def _stop_async_move(self) -> None:
+        if self._async_motion is not None:
+            self._async_motion = None
+            self._arm.halt()
+            self._write_async_word(-1)
+
+    def _stop_move(self, kind: str) -> None:
+        decel = float(self._in_doubles(0, 1)[0])
+        is_async = self._in_int(1) == 1
+        self._record({"kind": kind, "accel": decel, "async": is_async})
+        self._stop_async_move()
+        self._arm.halt()
+        if is_async:
+            # The stop thread starts and, the arm being halted at once, finishes.
+            self._write_async_word(0)
+            self._write_async_word(-1)
+
+
+def _plain(value: Any) -> Any:
+    """JSON-friendly: numpy vectors and scalars become Python lists and floats."""
+    if isinstance(value, np.ndarray):
+        return [float(v) for v in value]
+    if isinstance(value, np.floating):
+        return float(value)
+    return value

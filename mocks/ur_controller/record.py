@@ -1,0 +1,42 @@
+"""The record of what the robot was told: one dict per motion or stop command the script ran.
+
+`{"t": controller_time_s, "kind": "moveL", "target": [6 numbers], "speed": v, "accel": a,
+"async": bool}`; stops carry "accel" (the deceleration) and no target; speedStop has no "async".
+With a path, each entry is also appended to it as one JSON line, flushed at once.
+"""
+
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+from typing import Any, TextIO
+
+
+class CommandRecord:
+    """Thread-safe, append-only list of command dicts, mirrored to a JSON-lines file if given."""
+
+    def __init__(self, path: str | Path | None = None):
+        self._entries: list[dict[str, Any]] = []
+        self._lock = threading.Lock()
+        self._file: TextIO | None = None
+        if path is not None:
+            self._file = Path(path).open("a", encoding="utf-8")  # noqa: SIM115 (closed in close())
+
+    def add(self, entry: dict[str, Any]) -> None:
+        with self._lock:
+            self._entries.append(entry)
+            if self._file is not None:
+                self._file.write(json.dumps(entry) + "\n")
+                self._file.flush()
+
+    def entries(self) -> list[dict[str, Any]]:
+        """A copy of every entry so far, in order."""
+        with self._lock:
+            return [dict(entry) for entry in self._entries]
+
+    def close(self) -> None:
+        with self._lock:
+            if self._file is not None:
+                self._file.close()
+                self._file = None

@@ -1,0 +1,295 @@
+"""RTDE protocol version 2 server (port 30004): framing, recipes, input claims, streaming.
+
+Wire format (ur_rtde_protocol.md section 2): every package is `uint16 size` (big-endian, header
+included) + `uint8 type` + payload. Setup requests (V, v, O, I, S, P) get exactly one reply each,
+at once. After S a sender thread streams the output recipe at the requested frequency from the
+controller's latest published outputs.
+"""
+
+from __future__ import annotations
+
+import logging
+import socket
+import struct
+import threading
+import time
+from collections.abc import Mapping, Sequence
+from typing import Protocol
+
+from mocks.ur_controller.net import Listener, recv_exactly
+
+log = logging.getLogger("mocks.ur_controller")
+
+RTDE_PORT = 30004
+# PolyScope 5.15: 500 Hz, payload and F/T fields, the classic 13-name control recipe.
+POLYSCOPE_VERSION = (5, 15, 0, 1234)
+DEFAULT_FREQUENCY_HZ = 500.0
+
+_FORMATS = {
+    "BOOL": "?",
+    "UINT8": "B",
+    "INT32": "i",
+    "UINT32": "I",
+    "UINT64": "Q",
+    "DOUBLE": "d",
+    "VECTOR3D": "3d",
+    "VECTOR6D": "6d",
+    "VECTOR6INT32": "6i",
+    "VECTOR6UINT32": "6I",
+}
+_VECTOR_SIZES = {"VECTOR3D": 3, "VECTOR6D": 6, "VECTOR6INT32": 6, "VECTOR6UINT32": 6}
+
+
+def _output_types() -> dict[str, str]:
+    types: dict[str, str] = {}
+    for name in (
+        "timestamp", "actual_execution_time", "speed_scaling", "target_speed_fraction",
+        "actual_momentum", "actual_main_voltage", "actual_robot_voltage",
+        "actual_robot_current", "standard_analog_input0", "standard_analog_input1",
+        "standard_analog_output0", "standard_analog_output1", "payload",
+    ):
+        types[name] = "DOUBLE"
+    for name in (
+        "target_q", "target_qd", "target_qdd", "target_current", "target_moment",
+        "actual_q", "actual_qd", "actual_current", "joint_control_output",
+        "actual_TCP_pose", "actual_TCP_speed", "actual_TCP_force", "target_TCP_pose",
+        "target_TCP_speed", "joint_temperatures", "actual_joint_voltage", "ft_raw_wrench",
+        "payload_inertia",
+    ):
+        types[name] = "VECTOR6D"
+    types["actual_tool_accelerometer"] = "VECTOR3D"
+    types["payload_cog"] = "VECTOR3D"
+    types["joint_mode"] = "VECTOR6INT32"
+    types["robot_mode"] = "INT32"
+    types["safety_mode"] = "INT32"
+    for name in (
+        "runtime_state", "robot_status_bits", "safety_status_bits",
+        "output_bit_registers0_to_31", "output_bit_registers32_to_63",
+    ):
+        types[name] = "UINT32"
+    types["actual_digital_input_bits"] = "UINT64"
+    types["actual_digital_output_bits"] = "UINT64"
+    for n in range(48):
+        types[f"output_int_register_{n}"] = "INT32"
+        types[f"output_double_register_{n}"] = "DOUBLE"
+    return types
+
+
+def _input_types() -> dict[str, str]:
+    types: dict[str, str] = {}
+    for n in range(48):
+        types[f"input_int_register_{n}"] = "INT32"
+        types[f"input_double_register_{n}"] = "DOUBLE"
+    types["external_force_torque"] = "VECTOR6D"
+    for name in (
+        "standard_digital_output_mask", "standard_digital_output",
+        "configurable_digital_output_mask", "configurable_digital_output",
+        "tool_digital_output_mask", "tool_digital_output", "standard_analog_output_mask",
+        "standard_analog_output_type",
+    ):
+        types[name] = "UINT8"
+    types["speed_slider_mask"] = "UINT32"
+    types["speed_slider_fraction"] = "DOUBLE"
+    types["standard_analog_output_0"] = "DOUBLE"
+    types["standard_analog_output_1"] = "DOUBLE"
+    return types
+
+
+# The real UR type of every variable ur_rtde 1.6.5 knows (protocol spec section 3). Names outside
+# these tables are answered NOT_FOUND.
+OUTPUT_TYPES: dict[str, str] = _output_types()
+INPUT_TYPES: dict[str, str] = _input_types()
+
+
+def package(kind: bytes, payload: bytes) -> bytes:
+    """One RTDE package: size (header included), type byte, payload."""
+    return struct.pack(">HB", len(payload) + 3, kind[0]) + payload
+
+
+def recipe_struct(types: Sequence[str]) -> struct.Struct:
+    """Struct for a data package body: recipe id byte, then each field big-endian."""
+    return struct.Struct(">B" + "".join(_FORMATS[t] for t in types))
+
+
+def flatten(values: Sequence[object]) -> list[object]:
+    """Vectors become their elements, scalars stay: the argument list for a recipe struct."""
+    flat: list[object] = []
+    for value in values:
+        if isinstance(value, (tuple, list)):
+            flat.extend(value)
+        else:
+            flat.append(value)
+    return flat
+
+
+class RtdeBackend(Protocol):
+    """What the RTDE server needs from the controller."""
+
+    def latest_outputs(self) -> Mapping[str, object]:
+        """Every output variable's value as of the last control cycle."""
+
+    def write_inputs(self, values: Mapping[str, object]) -> None:
+        """Input fields written by one client data package, applied together."""
+
+    def take_refused_start(self) -> bool:
+        """True once if the next start request must be refused (fault refuse-start)."""
+
+    def stream_stalled(self) -> bool:
+        """True while the data stream must pause (fault stall:SECONDS)."""
+
+
+class _Recipe:
+    def __init__(self, names: list[str], types: list[str]):
+        self.names = names
+        self.types = types
+        self.struct = recipe_struct(types)
+
+
+class _Connection:
+    """One client on 30004: its recipes, input claims and (after S) its sender thread."""
+
+    def __init__(self, sock: socket.socket):
+        self.sock = sock
+        self.send_lock = threading.Lock()  # replies and data packages never interleave
+        self.inputs: dict[int, _Recipe] = {}
+        self.output: _Recipe | None = None
+        self.frequency_hz = DEFAULT_FREQUENCY_HZ
+        self.streaming = threading.Event()
+        self.closed = threading.Event()
+        self.sender: threading.Thread | None = None
+
+    def send(self, data: bytes) -> None:
+        with self.send_lock:
+            self.sock.sendall(data)
+
+
+class RtdeServer:
+    """Serves RTDE on (host, 30004) for any number of clients."""
+
+    def __init__(self, host: str, backend: RtdeBackend):
+        self._backend = backend
+        self._claims: dict[str, _Connection] = {}
+        self._claims_lock = threading.Lock()
+        self.listener = Listener(host, RTDE_PORT, "rtde", self._serve)
+
+    def _serve(self, sock: socket.socket) -> None:
+        conn = _Connection(sock)
+        try:
+            while True:
+                size, kind = struct.unpack(">HB", recv_exactly(sock, 3))
+                if size < 3:
+                    raise ConnectionError(f"RTDE package header says size {size}, minimum is 3")
+                self._handle(conn, bytes([kind]), recv_exactly(sock, size - 3))
+        except ConnectionError:
+            pass  # client disconnected, or drop_clients() closed the socket
+        finally:
+            conn.closed.set()
+            with self._claims_lock:
+                for name in [n for n, owner in self._claims.items() if owner is conn]:
+                    del self._claims[name]
+            if conn.sender is not None:
+                conn.sender.join(timeout=1.0)
+
+    def _handle(self, conn: _Connection, kind: bytes, payload: bytes) -> None:
+        if kind == b"V":
+            conn.send(package(b"V", b"\x01"))
+        elif kind == b"v":
+            conn.send(package(b"v", struct.pack(">IIII", *POLYSCOPE_VERSION)))
+        elif kind == b"O":
+            self._setup_outputs(conn, payload)
+        elif kind == b"I":
+            self._setup_inputs(conn, payload)
+        elif kind == b"S":
+            self._start(conn)
+        elif kind == b"P":
+            conn.streaming.clear()
+            conn.send(package(b"P", b"\x01"))
+        elif kind == b"U":
+            self._receive_inputs(conn, payload)
+        else:
+            log.warning("rtde: ignoring package type %r (%d bytes)", kind, len(payload))
+
+    def _setup_outputs(self, conn: _Connection, payload: bytes) -> None:
+        (frequency_hz,) = struct.unpack_from(">d", payload)
+        names = [n for n in payload[8:].decode("ascii").split(",") if n]
+        types = [OUTPUT_TYPES.get(name, "NOT_FOUND") for name in names]
+        if "NOT_FOUND" not in types:
+            conn.output = _Recipe(names, types)
+            conn.frequency_hz = frequency_hz if frequency_hz > 0 else DEFAULT_FREQUENCY_HZ
+        else:
+            missing = [n for n, t in zip(names, types, strict=True) if t == "NOT_FOUND"]
+            log.warning("rtde: output names not found: %s", missing)
+        conn.send(package(b"O", b"\x01" + ",".join(types).encode("ascii")))
+
+    def _setup_inputs(self, conn: _Connection, payload: bytes) -> None:
+        names = [n for n in payload.decode("ascii").split(",") if n]
+        types = [INPUT_TYPES.get(name, "NOT_FOUND") for name in names]
+        with self._claims_lock:
+            for i, name in enumerate(names):
+                owner = self._claims.get(name)
+                if owner is not None and owner is not conn:
+                    types[i] = "IN_USE"
+            usable = "IN_USE" not in types and "NOT_FOUND" not in types
+            if usable:
+                for name in names:
+                    self._claims[name] = conn
+        if usable:
+            # ur_rtde hard-codes input recipe ids 1, 2, 3... in request order per connection.
+            recipe_id = len(conn.inputs) + 1
+            conn.inputs[recipe_id] = _Recipe(names, types)
+        else:
+            recipe_id = 0
+            log.warning("rtde: input recipe refused: %s", dict(zip(names, types, strict=True)))
+        conn.send(package(b"I", bytes([recipe_id]) + ",".join(types).encode("ascii")))
+
+    def _start(self, conn: _Connection) -> None:
+        if self._backend.take_refused_start() or conn.output is None:
+            log.warning("rtde: refusing start request (fault or no output recipe)")
+            conn.send(package(b"S", b"\x00"))
+            return
+        conn.send(package(b"S", b"\x01"))
+        conn.streaming.set()
+        if conn.sender is None:
+            conn.sender = threading.Thread(
+                target=self._stream, args=(conn,), name="rtde-sender", daemon=True
+            )
+            conn.sender.start()
+
+    def _receive_inputs(self, conn: _Connection, payload: bytes) -> None:
+        recipe = conn.inputs.get(payload[0]) if payload else None
+        if recipe is None or len(payload) != recipe.struct.size:
+            expected = "unknown recipe" if recipe is None else f"{recipe.struct.size} bytes"
+            log.warning(
+                "rtde: dropping malformed data package: recipe %s, %d bytes, expected %s",
+                payload[0] if payload else None, len(payload), expected,
+            )
+            return
+        values = recipe.struct.unpack(payload)[1:]
+        fields: dict[str, object] = {}
+        index = 0
+        for name, kind in zip(recipe.names, recipe.types, strict=True):
+            count = _VECTOR_SIZES.get(kind, 1)
+            fields[name] = values[index] if count == 1 else tuple(values[index : index + count])
+            index += count
+        self._backend.write_inputs(fields)
+
+    def _stream(self, conn: _Connection) -> None:
+        """Send the output recipe at the requested rate until the connection closes."""
+        period_s = 1.0 / conn.frequency_hz
+        next_s = time.monotonic()
+        while not conn.closed.is_set():
+            next_s += period_s
+            delay_s = next_s - time.monotonic()
+            if delay_s < -0.1:
+                next_s = time.monotonic()  # fell far behind (machine busy): resync, no burst
+            elif delay_s > 0 and conn.closed.wait(delay_s):
+                return
+            recipe = conn.output
+            if recipe is None or not conn.streaming.is_set() or self._backend.stream_stalled():
+                continue
+            outputs = self._backend.latest_outputs()
+            body = recipe.struct.pack(1, *flatten([outputs[name] for name in recipe.names]))
+            try:
+                conn.send(package(b"U", body))
+            except OSError:
+                return

@@ -1,0 +1,161 @@
+"""SimulatedController: the simulated UR controller in a child process, driven from Python.
+
+ur_rtde 1.6.5's constructors hold the GIL while they wait for the controller's replies, so a
+server thread in the test's own process could never answer them. The controller therefore runs
+as `python -m mocks.ur_controller --serve-stdio` in a child process; this class starts it, waits
+for its `ready` line and forwards inject/snapshot/commands requests as JSON lines on its stdin.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import threading
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+from typing import Any
+
+from mocks.ur_controller.controller import ControllerSnapshot
+
+_REPO_ROOT = Path(__file__).resolve().parents[2]
+_START_TIMEOUT_S = 30.0
+
+
+class SimulatedController:
+    """A simulated UR controller on `host`; a context manager (start on enter, stop on exit).
+
+    Arguments are those of the command line (see README.md): poses are UR vectors (m, rad),
+    joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds `FAULT@WHEN` specs.
+    """
+
+    def __init__(
+        self,
+        host: str = "127.0.0.1",
+        model: str = "ur5e",
+        initial_q: Sequence[float] | None = None,
+        initial_flange_pose: Sequence[float] | None = None,
+        tcp_offset: Sequence[float] = (0, 0, 0, 0, 0, 0),
+        speed_factor: float = 1.0,
+        instant: bool = False,
+        record_path: str | Path | None = None,
+        inject: Iterable[str] = (),
+        remote_control: bool = True,
+        allow_non_loopback: bool = False,
+    ):
+        self.host = host
+        self.model = model
+        argv = ["--host", host, "--model", model, "--tcp-offset", *_numbers(tcp_offset)]
+        if initial_q is not None:
+            argv += ["--initial-q", *_numbers(initial_q)]
+        if initial_flange_pose is not None:
+            argv += ["--initial-flange-pose", *_numbers(initial_flange_pose)]
+        argv += ["--instant"] if instant else ["--speed-factor", repr(float(speed_factor))]
+        if record_path is not None:
+            argv += ["--record", str(record_path)]
+        for spec in inject:
+            argv += ["--inject", spec]
+        if not remote_control:
+            argv.append("--no-remote-control")
+        if allow_non_loopback:
+            argv.append("--allow-non-loopback")
+        self._argv = argv
+        self._process: subprocess.Popen[str] | None = None
+        self._lock = threading.Lock()
+
+    # --- lifetime ---------------------------------------------------------------------------
+
+    def start(self) -> SimulatedController:
+        """Start the child process; returns once 30004, 29999 and 30003 listen."""
+        env = dict(os.environ)
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_REPO_ROOT),
+                                                          env.get("PYTHONPATH")]))
+        process = subprocess.Popen(
+            [sys.executable, "-m", "mocks.ur_controller", "--serve-stdio", *self._argv],
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=_REPO_ROOT, env=env,
+        )
+        self._process = process
+        first_line = self._read_line(_START_TIMEOUT_S)
+        if not first_line.startswith("ready"):
+            code = process.wait(timeout=5.0)
+            self._process = None
+            raise RuntimeError(f"simulated controller on {self.host} did not start: exit code "
+                               f"{code}, output {first_line!r} (its stderr says why)")
+        return self
+
+    def stop(self) -> None:
+        """Stop the child process (SIGTERM, then SIGKILL after 5 s)."""
+        process, self._process = self._process, None
+        if process is None:
+            return
+        process.terminate()
+        try:
+            process.wait(timeout=5.0)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                stream.close()
+
+    def __enter__(self) -> SimulatedController:
+        return self.start()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.stop()
+
+    # --- requests ---------------------------------------------------------------------------
+
+    def inject(self, spec: str) -> None:
+        """Inject a fault `FAULT@WHEN` (`@now` implied); ValueError for a bad spec."""
+        self._request({"op": "inject", "spec": spec})
+
+    @property
+    def commands(self) -> list[dict[str, Any]]:
+        """Copy of the command record: one dict per motion or stop command, in order."""
+        result: list[dict[str, Any]] = self._request({"op": "commands"})
+        return result
+
+    def snapshot(self) -> ControllerSnapshot:
+        """The controller's state now (see ControllerSnapshot for fields and units)."""
+        fields: dict[str, Any] = {
+            key: tuple(value) if isinstance(value, list) else value
+            for key, value in self._request({"op": "snapshot"}).items()
+        }
+        return ControllerSnapshot(**fields)
+
+    def set_remote_control(self, enabled: bool) -> None:
+        self._request({"op": "set_remote_control", "enabled": enabled})
+
+    def _request(self, request: dict[str, Any]) -> Any:
+        with self._lock:
+            process = self._process
+            if process is None or process.stdin is None:
+                raise RuntimeError(f"simulated controller on {self.host} is not running")
+            process.stdin.write(json.dumps(request) + "\n")
+            process.stdin.flush()
+            reply = json.loads(self._read_line(10.0))
+        if not reply["ok"]:
+            raise ValueError(reply["error"])
+        return reply["result"]
+
+    def _read_line(self, timeout_s: float) -> str:
+        """One line of the child's stdout; RuntimeError if none comes within timeout_s."""
+        process = self._process
+        if process is None or process.stdout is None:
+            raise RuntimeError(f"simulated controller on {self.host} is not running")
+        lines: list[str] = []
+        reader = threading.Thread(target=lambda: lines.append(process.stdout.readline()),  # type: ignore[union-attr]
+                                  daemon=True)
+        reader.start()
+        reader.join(timeout_s)
+        if not lines:
+            raise RuntimeError(f"simulated controller on {self.host}: no answer within "
+                               f"{timeout_s} s")
+        return lines[0]
+
+
+def _numbers(values: Iterable[float]) -> list[str]:
+    """Command-line spelling of floats that round-trips exactly."""
+    return [repr(float(v)) for v in values]
