@@ -1,4 +1,4 @@
-"""The cell configuration: one YAML file read with ``yaml.safe_load`` into frozen dataclasses.
+"""The cell configuration: one YAML file, read with PyYAML's safe loader, into frozen dataclasses.
 
 Every key is checked where it is read: an unknown key, a wrong type or a value out of range is a
 ``ConfigError`` naming the file and the key path (``motion.speed_mps``). Units are in the key
@@ -52,7 +52,7 @@ class GripperConfig:
     bank: OutputBank  # standard (control box) or tool (flange connector)
     index: int  # output number: 0-7 standard, 0-1 tool
     close_value: bool  # output level that closes the gripper / switches suction on
-    settle_s: float  # wait after switching before the retreat starts (s)
+    settle_s: float = 0.5  # wait after switching before the retreat starts (s)
 
 
 @dataclass(frozen=True)
@@ -384,10 +384,18 @@ def _robot(top: Fields) -> RobotConfig:
         host=robot.string("host"),
         T_flange_tcp=_pose_vector(robot, "tcp_offset", MAX_TCP_OFFSET_M),
         tcp_offset_tolerance_mm=robot.number(
-            "tcp_offset_tolerance_mm", default=1.0, above=0.0, maximum=20.0, unit="mm"
+            "tcp_offset_tolerance_mm",
+            default=RobotConfig.tcp_offset_tolerance_mm,
+            above=0.0,
+            maximum=20.0,
+            unit="mm",
         ),
         tcp_offset_tolerance_deg=robot.number(
-            "tcp_offset_tolerance_deg", default=1.0, above=0.0, maximum=10.0, unit="deg"
+            "tcp_offset_tolerance_deg",
+            default=RobotConfig.tcp_offset_tolerance_deg,
+            above=0.0,
+            maximum=10.0,
+            unit="deg",
         ),
         gripper=_gripper(robot) if robot.has("gripper") else None,
     )
@@ -401,7 +409,9 @@ def _gripper(robot: Fields) -> GripperConfig:
         bank=bank,
         index=gripper.integer("index", minimum=0, maximum=count - 1),
         close_value=gripper.boolean("close_value"),
-        settle_s=gripper.number("settle_s", default=0.5, minimum=0.0, maximum=10.0, unit="s"),
+        settle_s=gripper.number(
+            "settle_s", default=GripperConfig.settle_s, minimum=0.0, maximum=10.0, unit="s"
+        ),
     )
 
 
@@ -413,7 +423,7 @@ def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
         mode=mode,
         file=_existing_file(hand_eye, "file", folder),
         units=units,
-        invert=hand_eye.boolean("invert", default=False),
+        invert=hand_eye.boolean("invert", default=HandEyeConfig.invert),
     )
 
 
@@ -457,7 +467,9 @@ def _motion(top: Fields) -> MotionConfig:
             f"got {grasp_speed:g} m/s",
         )
     accel = motion.number("accel_mps2", above=0.0, maximum=MAX_ACCEL_MPS2, unit="m/s^2")
-    stop_decel = motion.number("stop_decel_mps2", default=10.0, above=0.0, unit="m/s^2")
+    stop_decel = motion.number(
+        "stop_decel_mps2", default=MotionConfig.stop_decel_mps2, above=0.0, unit="m/s^2"
+    )
     problem = stop_decel_problem(stop_decel, accel)
     if problem is not None:
         motion.fail("stop_decel_mps2", problem)
@@ -467,7 +479,11 @@ def _motion(top: Fields) -> MotionConfig:
         grasp_speed_mps=grasp_speed,
         stop_decel_mps2=stop_decel,
         timeout_margin_s=motion.number(
-            "timeout_margin_s", default=5.0, above=0.0, maximum=120.0, unit="s"
+            "timeout_margin_s",
+            default=MotionConfig.timeout_margin_s,
+            above=0.0,
+            maximum=120.0,
+            unit="s",
         ),
     )
 
