@@ -206,3 +206,27 @@ def test_bad_input_exits_2_with_one_line(
     assert message in err
     assert not (tmp_path / "base.npy").exists()
     assert not (tmp_path / "base.txt").exists()
+
+
+def test_bundled_example_lands_on_the_table(tmp_path: Path) -> None:
+    # The example cloud is a table (base z = 0) with an 80 mm box, seen by the example camera.
+    root = Path(__file__).resolve().parents[2]
+    status = main(
+        [
+            "cloud",
+            "--mode",
+            "eye-to-hand",
+            "--calibration",
+            str(root / "config" / "calibration" / "EyeToHandTransform.yaml"),
+            str(root / "examples" / "table_box_camera_mm.npy"),
+            str(tmp_path / "base.npy"),
+        ]
+    )
+
+    assert status == 0
+    z_mm = read_cloud(tmp_path / "base.npy").xyz[..., 2]
+    valid = z_mm[~np.isnan(z_mm)]
+    on_table = np.abs(valid) < 0.01
+    on_box = np.abs(valid - 80.0) < 0.01
+    assert np.all(on_table | on_box)
+    assert on_box.sum() > 5

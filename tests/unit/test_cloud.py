@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -276,3 +279,25 @@ def test_pick_point_needs_an_organized_cloud() -> None:
 def test_pick_point_needs_integer_pixels() -> None:
     with pytest.raises(DetectionError, match="col must be an integer"):
         pick_point(organized_cloud(), col=1.5, row=0)  # type: ignore[arg-type]
+
+
+def test_benchmark_script_runs_on_a_tiny_cloud() -> None:
+    # Keeps benchmarks/cloud_transform.py working; its figures are read by people, not asserted.
+    root = Path(__file__).resolve().parents[2]
+    result = subprocess.run(
+        [
+            sys.executable,
+            str(root / "benchmarks" / "cloud_transform.py"),
+            "--rows",
+            "4",
+            "--cols",
+            "5",
+            "--repeats",
+            "2",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    assert "float32 in place:" in result.stdout
