@@ -101,6 +101,9 @@ def transform_points(points: FloatArray, T: ArrayLike, out: FloatArray | None = 
         The points in frame a, same shape and dtype as ``points`` (``out`` when given). float32
         data is transformed in float32 arithmetic (relative error about 1e-7 of the coordinates).
 
+    Speed: in place runs at about the speed of ``np.copyto`` of the cloud; out of place is a copy
+    plus that. The first call in a process imports numba (and compiles, once per machine).
+
     Raises:
         InputError: ``points`` or ``out`` has the wrong type, shape, dtype, or is read-only.
         TransformError: ``T`` is not a rigid 4x4 transform.
