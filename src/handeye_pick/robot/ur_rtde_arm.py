@@ -14,6 +14,7 @@ the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_
 from __future__ import annotations
 
 import logging
+import math
 import socket
 import subprocess
 import sys
@@ -49,6 +50,9 @@ log = logging.getLogger(__name__)
 DASHBOARD_PORT = 29999
 POLL_PERIOD_S = 0.004
 """How often a running move is watched: two RTDE cycles at 500 Hz."""
+REACHED_TOLERANCE_M = 0.001
+REACHED_TOLERANCE_RAD = math.radians(0.5)
+"""A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 
@@ -270,6 +274,9 @@ class URRtdeArm:
                 after = self._sample("sample")
                 raise self._fault(f"moveL to {_fmt_pose(target)} was refused", after)
             self._watch_motion(start, T_base_tcp, timeout_s, on_progress)
+            reached = self._sample("fresh_sample")
+            self._check_motion_sample(reached)
+            self._check_reached(reached, T_base_tcp)
         except KeyboardInterrupt:
             log.warning("interrupted during moveL: sending stopL")
             self.stop_linear(self._stop_decel_mps2)
@@ -280,7 +287,7 @@ class URRtdeArm:
         except RobotFault:
             self.stop_linear(self._stop_decel_mps2)
             raise
-        return self.tcp_pose()
+        return ur_pose_to_matrix(reached.tcp_pose)
 
     def stop_linear(self, decel_mps2: float) -> None:
         """stopL; best effort: on a dead link it stops the program through the dashboard."""
@@ -363,6 +370,20 @@ class URRtdeArm:
             raise self._fault("moveL aborted: the control program stopped", sample)
         if sample.robot_mode != RobotMode.RUNNING:
             raise self._fault("moveL aborted: the robot is no longer running", sample)
+
+    def _check_reached(self, sample: Sample, T_target: Transform) -> None:
+        """The async move reported its end: make sure it ended at the target, not short of it
+        (a program stopped mid-move also ends the async operation)."""
+        T_reached = ur_pose_to_matrix(sample.tcp_pose)
+        off_m = float(np.linalg.norm(T_reached[:3, 3] - T_target[:3, 3]))
+        off_rad = rotation_angle_between(T_reached[:3, :3], T_target[:3, :3])
+        if off_m > REACHED_TOLERANCE_M or off_rad > REACHED_TOLERANCE_RAD:
+            raise self._fault(
+                f"moveL ended {off_m * 1000:.1f} mm and {math.degrees(off_rad):.2f} deg away "
+                f"from its target (tolerance {REACHED_TOLERANCE_M * 1000:g} mm, "
+                f"{math.degrees(REACHED_TOLERANCE_RAD):g} deg)",
+                sample,
+            )
 
     def _fault(self, what: str, sample: Sample) -> RobotFault:
         return RobotFault(

@@ -15,6 +15,7 @@ vectors (m, rad) in plain lists; the parent does all frame maths.
 
 from __future__ import annotations
 
+import os
 import signal
 import sys
 import time
@@ -79,6 +80,13 @@ class _Session:
         self._dashboard: Any = dashboard_client.DashboardClient(host)
         self._dashboard.connect()
         self.controller_version = str(self._dashboard.polyscopeVersion())
+        # A refused RTDE start leaves the receive interface constructed but dead, its getters
+        # returning zeros (ur_rtde_protocol.md section 9): refuse to go on with it.
+        if not self._receive.isConnected() or not self._control.isConnected():
+            raise RuntimeError(
+                "the controller did not start the RTDE data stream (receive connected: "
+                f"{self._receive.isConnected()}, control connected: {self._control.isConnected()})"
+            )
 
     def sample(self) -> Sample:
         r, c = self._receive, self._control
@@ -140,12 +148,6 @@ class _Session:
             raise RuntimeError("the IO interface was not opened (no gripper output configured)")
         return self._io
 
-    def close(self) -> None:
-        if self._io is not None:
-            self._io.disconnect()
-        self._control.disconnect()
-        self._receive.disconnect()
-        self._dashboard.disconnect()
 
 
 def serve(conn: Connection, host: str, with_io: bool) -> None:
@@ -170,19 +172,21 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
         "stop_l": session.stop_l,
         "set_standard_digital_out": session.set_standard_digital_out,
         "set_tool_digital_out": session.set_tool_digital_out,
-        "close": session.close,
     }
     while True:
         try:
             operation, args = conn.recv()
         except EOFError:  # parent gone: leave without touching the robot
-            return
+            os._exit(0)
+        if operation == "close":
+            conn.send(("ok", None))
+            # Exiting closes every socket, which is all ur_rtde's disconnect() does on the wire
+            # (no STOP_SCRIPT, no RTDE pause); its destructors would add 0.5 s sleeps each.
+            os._exit(0)
         try:
             conn.send(("ok", operations[operation](*args)))
         except Exception as exc:
             conn.send(Failure(operation, type(exc).__name__, str(exc)))
-        if operation == "close":
-            return
 
 
 def main() -> None:
