@@ -153,17 +153,17 @@ def _target_checks(
     name: str, T_base_tcp: Transform, workspace: WorkspaceConfig, arm: RobotArm
 ) -> list[CheckResult]:
     p_mm = np.round(T_base_tcp[:3, 3] * 1000.0, 1).tolist()
+    where = f"the TCP at {p_mm} mm"
     box = workspace_problem(T_base_tcp, workspace)
     tilt = tilt_deg(T_base_tcp)
     within = arm.is_pose_within_safety_limits(T_base_tcp)
     reachable = arm.has_ik_solution(T_base_tcp)
-    pose = np.round(matrix_to_ur_pose(T_base_tcp), 4).tolist()
     return [
         CheckResult(
             "workspace",
             name,
             box is None,
-            f"TCP at {p_mm} mm inside the box" if box is None else f"TCP at {p_mm} mm: {box}",
+            f"{where} inside the box" if box is None else f"{where}: {box}",
         ),
         CheckResult(
             "tilt",
@@ -175,13 +175,13 @@ def _target_checks(
             "safety_limits",
             name,
             within,
-            f"controller safety limits {'accept' if within else 'refuse'} pose {pose}",
+            f"controller safety limits {'accept' if within else 'refuse'} {where}",
         ),
         CheckResult(
             "ik",
             name,
             reachable,
-            f"controller {'finds' if reachable else 'finds no'} inverse kinematics for pose {pose}",
+            f"controller {'finds' if reachable else 'finds no'} inverse kinematics for {where}",
         ),
     ]
 
