@@ -30,6 +30,9 @@ Matrix = NDArray[np.float64]
 IK_TOLERANCE = 1e-9
 """Largest accepted |forward(q) - T| entry (metres for position, unitless for rotation)."""
 
+LIMIT_TOLERANCE_RAD = 1e-6
+"""A joint solved this close beyond a limit is round-off (a stretched arm solves q3 to ~1e-7)."""
+
 SINGULAR_WRIST_TOLERANCE = 1e-12
 """|sin q5| below this makes q4 and q6 indistinguishable: q6 is then chosen by the caller."""
 
@@ -199,11 +202,12 @@ def inverse_all(
 
     Closed form for the UR geometry (three parallel middle axes, offset wrist). Each solution is
     checked with ``forward`` to ``IK_TOLERANCE``; an unreachable pose gives an empty list. At a
-    wrist singularity (sin q5 = 0) only q4 + q6 is determined: q6 is set to ``q6_if_singular``.
+    wrist singularity (sin q5 = 0) q6 is free: it is ``q6_if_singular`` when the arm can reach
+    with that, else the nearest q6 that can (see ``_singular_q6``).
     Joint limits are not applied here (see ``inverse``).
     """
     T = _transform(T_base_flange, "inverse_all", "T_base_flange")
-    d1, d4, d5, d6 = model.d[0], model.d[3], model.d[4], model.d[5]
+    d4, d6 = model.d[3], model.d[5]
     a2, a3 = model.a[1], model.a[2]
     R = T[:3, :3]
 
@@ -226,15 +230,12 @@ def inverse_all(
         for wrist_sign in (1.0, -1.0):
             q5 = math.atan2(wrist_sign * s5_abs, c5)
             if s5_abs < SINGULAR_WRIST_TOLERANCE:
-                q6 = q6_if_singular
+                q6 = _singular_q6(model, T, q1, q5, q6_if_singular)
             else:
                 q6 = math.atan2(
                     -wrist_sign * float(z1_in_flange[1]), wrist_sign * float(z1_in_flange[0])
                 )
-            T_01 = _dh(q1, d1, 0.0, model.alpha[0])
-            T_45 = _dh(q5, d5, 0.0, model.alpha[4])
-            T_56 = _dh(q6, d6, 0.0, model.alpha[5])
-            T_14 = _invert(T_01) @ T @ _invert(T_45 @ T_56)
+            T_14 = _T_1_4(model, T, q1, q5, q6)
             # Joints 2-4 form a planar arm in the x-y plane of frame 1.
             x, y = float(T_14[0, 3]), float(T_14[1, 3])
             c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
@@ -254,6 +255,59 @@ def inverse_all(
     return solutions
 
 
+def _T_1_4(model: URModel, T_base_flange: Matrix, q1: float, q5: float, q6: float) -> Matrix:
+    """Frame 4 in frame 1 once joints 1, 5 and 6 are fixed: what the planar arm must reach."""
+    T_0_1 = _dh(q1, model.d[0], model.a[0], model.alpha[0])
+    T_4_5 = _dh(q5, model.d[4], model.a[4], model.alpha[4])
+    T_5_6 = _dh(q6, model.d[5], model.a[5], model.alpha[5])
+    return _invert(T_0_1) @ T_base_flange @ _invert(T_4_5 @ T_5_6)
+
+
+def _singular_q6(
+    model: URModel, T_base_flange: Matrix, q1: float, q5: float, q6_preferred: float
+) -> float:
+    """q6 for a singular wrist (sin q5 = 0): ``q6_preferred`` if the planar arm then reaches.
+
+    With sin q5 = 0 the axes of joints 2, 3, 4 and 6 are parallel, so q6 is free; it moves the
+    origin of frame 4 on a circle of radius d5 in the x-y plane of frame 1. The planar arm reaches
+    an annulus around joint 2; when ``q6_preferred`` puts the origin outside it, the nearest q6
+    on the annulus edge is used instead (a stretched or folded arm).
+    """
+
+    def origin_4(q6: float) -> Matrix:
+        xy: Matrix = _T_1_4(model, T_base_flange, q1, q5, q6)[:2, 3]
+        return xy
+
+    centre = 0.5 * (origin_4(0.0) + origin_4(math.pi))
+    at_0 = origin_4(0.0) - centre
+    at_90 = origin_4(math.pi / 2) - centre
+    # Angle of the origin on the circle: psi = turn * q6 + offset, seen from joint 2's direction.
+    turn = 1.0 if at_0[0] * at_90[1] - at_0[1] * at_90[0] > 0.0 else -1.0
+    offset = math.atan2(float(at_0[1]), float(at_0[0])) - math.atan2(
+        float(centre[1]), float(centre[0])
+    )
+    centre_m = math.hypot(float(centre[0]), float(centre[1]))
+    d5 = model.d[4]
+    if centre_m * d5 < 1e-12:
+        return q6_preferred  # circle centred on joint 2: every q6 is equally reachable
+
+    def cos_psi_at(radius: float) -> float:
+        return (radius * radius - centre_m * centre_m - d5 * d5) / (2.0 * d5 * centre_m)
+
+    a2, a3 = abs(model.a[1]), abs(model.a[2])
+    cos_low, cos_high = cos_psi_at(abs(a2 - a3)), cos_psi_at(a2 + a3)
+    psi_preferred = turn * q6_preferred + offset
+    if cos_low <= math.cos(psi_preferred) <= cos_high:
+        return q6_preferred
+    edges = [
+        sign * math.acos(max(-1.0, min(1.0, cos_edge)))
+        for cos_edge in (cos_low, cos_high)
+        for sign in (1.0, -1.0)
+    ]
+    psi = min(edges, key=lambda edge: abs(math.remainder(edge - psi_preferred, _FULL_TURN)))
+    return turn * (psi - offset)
+
+
 def _matches(model: URModel, q: Matrix, T: Matrix) -> bool:
     return float(np.max(np.abs(_chain(model, q)[:3] - T[:3]))) <= IK_TOLERANCE
 
@@ -266,16 +320,20 @@ def _contains(solutions: list[Matrix], q: Matrix) -> bool:
 
 
 def _nearest_turn(model: URModel, q: Matrix, q_near: Matrix) -> Matrix | None:
-    """``q`` with each joint shifted by whole turns to be nearest ``q_near`` within limits."""
+    """``q`` with each joint shifted by whole turns to be nearest ``q_near`` within limits.
+
+    A joint that overshoots a limit by round-off only (``LIMIT_TOLERANCE_RAD``) is put on the
+    limit, so a target taken at exactly +-2 pi keeps its turn.
+    """
+    lo = np.asarray(model.joint_min_rad)
+    hi = np.asarray(model.joint_max_rad)
     turns = np.round((q_near - q) / _FULL_TURN) + np.array([[-1.0], [0.0], [1.0]])
     candidates = q + turns * _FULL_TURN  # (3, 6): one row per turn count
-    allowed = (candidates >= np.asarray(model.joint_min_rad)) & (
-        candidates <= np.asarray(model.joint_max_rad)
-    )
+    allowed = (candidates >= lo - LIMIT_TOLERANCE_RAD) & (candidates <= hi + LIMIT_TOLERANCE_RAD)
     if not np.all(np.any(allowed, axis=0)):
         return None
     gaps = np.where(allowed, np.abs(candidates - q_near), math.inf)
-    nearest: Matrix = candidates[np.argmin(gaps, axis=0), np.arange(6)]
+    nearest: Matrix = np.clip(candidates[np.argmin(gaps, axis=0), np.arange(6)], lo, hi)
     return nearest
 
 
@@ -283,7 +341,9 @@ def inverse(model: URModel, T_base_flange: ArrayLike, q_near: ArrayLike) -> Matr
     """The joint solution reaching ``T_base_flange`` nearest ``q_near`` (Euclidean, rad).
 
     Each joint is moved by whole turns to be nearest ``q_near`` while staying within the model's
-    limits. At a wrist singularity q6 keeps ``q_near[5]``. None when the pose is unreachable.
+    limits; a joint snapped onto a limit (``LIMIT_TOLERANCE_RAD``) may cost ~1e-6 m of accuracy.
+    At a wrist singularity q6 keeps ``q_near[5]`` when the arm can reach with it. None when the
+    pose is unreachable.
     """
     near = _vector(q_near, 6, "inverse", "q_near")
     best: Matrix | None = None
