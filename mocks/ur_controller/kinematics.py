@@ -173,13 +173,28 @@ def _dh(theta: float, d: float, a: float, alpha: float) -> Matrix:
 
 def forward(model: URModel, q: ArrayLike) -> Matrix:
     """``T_base_flange`` (4x4, m) for joint angles ``q`` (6, rad)."""
-    return _chain(model, _vector(q, 6, "forward", "q"))
+    joints = _vector(q, 6, "forward", "q")
+    T_base_flange: Matrix = _forward_many(model, joints[np.newaxis])[0]
+    return T_base_flange
 
 
-def _chain(model: URModel, q: Matrix) -> Matrix:
-    T = _dh(float(q[0]), model.d[0], model.a[0], model.alpha[0])
+def _forward_many(model: URModel, Q: Matrix) -> Matrix:
+    """``T_base_flange`` for each row of ``Q`` (n, 6): shape (n, 4, 4). One numpy pass for all."""
+    ct, st = np.cos(Q), np.sin(Q)
+    ca, sa = np.cos(model.alpha), np.sin(model.alpha)
+    a, d = np.asarray(model.a), np.asarray(model.d)
+    zero, one = np.zeros_like(Q), np.ones_like(Q)
+    # Standard DH link i-1 -> i: Rz(theta) Tz(d) Tx(a) Rx(alpha), shape (n, 6, 4, 4).
+    rows = [
+        [ct, -st * ca, st * sa, a * ct],
+        [st, ct * ca, -ct * sa, a * st],
+        [zero, sa + zero, ca + zero, d + zero],
+        [zero, zero, zero, one],
+    ]
+    links = np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    T = links[:, 0]
     for i in range(1, 6):
-        T = T @ _dh(float(q[i]), model.d[i], model.a[i], model.alpha[i])
+        T = T @ links[:, i]
     return T
 
 
@@ -220,7 +235,7 @@ def inverse_all(
     phi = math.atan2(float(p05[1]), float(p05[0]))
     q1_options = [phi + math.atan2(d4, along), phi + math.atan2(d4, -along)]
 
-    solutions: list[Matrix] = []
+    candidates: list[list[float]] = []
     for q1 in q1_options:
         # Joint 1's axis z1 expressed in the flange frame is [s5 c6, -s5 s6, c5].
         z1_in_base = np.array([math.sin(q1), -math.cos(q1), 0.0])
@@ -249,10 +264,16 @@ def inverse_all(
                 q3 = math.atan2(s3, c3)
                 q2 = math.atan2(y, x) - math.atan2(a3 * s3, a2 + a3 * c3)
                 q4 = q234 - q2 - q3
-                q = _wrap_pi(np.array([q1, q2, q3, q4, q5, q6]))
-                if _matches(model, q, T) and not _contains(solutions, q):
-                    solutions.append(q)
-    return solutions
+                candidates.append([q1, q2, q3, q4, q5, q6])
+    if not candidates:
+        return []
+    Q = _wrap_pi(np.array(candidates))
+    errors = np.max(np.abs(_forward_many(model, Q)[:, :3] - T[:3]), axis=(1, 2))
+    Q = Q[errors <= IK_TOLERANCE]
+    # Branches meet at singularities (a stretched arm, a singular wrist): keep one of each.
+    gaps = np.max(np.abs(_wrap_pi(Q[:, np.newaxis] - Q[np.newaxis])), axis=2)
+    repeats = np.any(np.tril(gaps <= IK_TOLERANCE, k=-1), axis=1)
+    return list(Q[~repeats])
 
 
 def _T_1_4(model: URModel, T_base_flange: Matrix, q1: float, q5: float, q6: float) -> Matrix:
@@ -308,33 +329,25 @@ def _singular_q6(
     return turn * (psi - offset)
 
 
-def _matches(model: URModel, q: Matrix, T: Matrix) -> bool:
-    return float(np.max(np.abs(_chain(model, q)[:3] - T[:3]))) <= IK_TOLERANCE
+def _nearest_turn(model: URModel, Q: Matrix, q_near: Matrix) -> tuple[Matrix, NDArray[np.bool_]]:
+    """Rows of ``Q`` (n, 6) with each joint shifted by whole turns to be nearest ``q_near``.
 
-
-def _contains(solutions: list[Matrix], q: Matrix) -> bool:
-    if not solutions:
-        return False
-    differences = _wrap_pi(np.stack(solutions) - q)
-    return bool(np.any(np.max(np.abs(differences), axis=1) <= IK_TOLERANCE))
-
-
-def _nearest_turn(model: URModel, q: Matrix, q_near: Matrix) -> Matrix | None:
-    """``q`` with each joint shifted by whole turns to be nearest ``q_near`` within limits.
-
-    A joint that overshoots a limit by round-off only (``LIMIT_TOLERANCE_RAD``) is put on the
-    limit, so a target taken at exactly +-2 pi keeps its turn.
+    Returns the shifted rows and which of them fit the joint limits. A joint that overshoots a
+    limit by round-off only (``LIMIT_TOLERANCE_RAD``) is put on the limit, so a target taken at
+    exactly +-2 pi keeps its turn.
     """
     lo = np.asarray(model.joint_min_rad)
     hi = np.asarray(model.joint_max_rad)
-    turns = np.round((q_near - q) / _FULL_TURN) + np.array([[-1.0], [0.0], [1.0]])
-    candidates = q + turns * _FULL_TURN  # (3, 6): one row per turn count
-    allowed = (candidates >= lo - LIMIT_TOLERANCE_RAD) & (candidates <= hi + LIMIT_TOLERANCE_RAD)
-    if not np.all(np.any(allowed, axis=0)):
-        return None
-    gaps = np.where(allowed, np.abs(candidates - q_near), math.inf)
-    nearest: Matrix = np.clip(candidates[np.argmin(gaps, axis=0), np.arange(6)], lo, hi)
-    return nearest
+    # Turn counts around q_near clipped into the limits, so a far-off q_near still finds them.
+    centre = np.clip(q_near, lo, hi)
+    turns = np.round((centre - Q) / _FULL_TURN) + np.array([-1.0, 0.0, 1.0])[:, None, None]
+    shifted = Q + turns * _FULL_TURN  # (3, n, 6): one layer per turn count
+    allowed = (shifted >= lo - LIMIT_TOLERANCE_RAD) & (shifted <= hi + LIMIT_TOLERANCE_RAD)
+    gaps = np.where(allowed, np.abs(shifted - q_near), math.inf)
+    best_turn = np.argmin(gaps, axis=0)  # (n, 6)
+    nearest = np.clip(np.take_along_axis(shifted, best_turn[np.newaxis], axis=0)[0], lo, hi)
+    fits: NDArray[np.bool_] = np.all(np.any(allowed, axis=0), axis=1)
+    return nearest, fits
 
 
 def inverse(model: URModel, T_base_flange: ArrayLike, q_near: ArrayLike) -> Matrix | None:
@@ -346,15 +359,14 @@ def inverse(model: URModel, T_base_flange: ArrayLike, q_near: ArrayLike) -> Matr
     pose is unreachable.
     """
     near = _vector(q_near, 6, "inverse", "q_near")
-    best: Matrix | None = None
-    best_distance = math.inf
-    for q in inverse_all(model, T_base_flange, q6_if_singular=float(near[5])):
-        candidate = _nearest_turn(model, q, near)
-        if candidate is None:
-            continue
-        distance = float(np.linalg.norm(candidate - near))
-        if distance < best_distance:
-            best, best_distance = candidate, distance
+    solutions = inverse_all(model, T_base_flange, q6_if_singular=float(near[5]))
+    if not solutions:
+        return None
+    shifted, fits = _nearest_turn(model, np.array(solutions), near)
+    if not np.any(fits):
+        return None
+    distances = np.where(fits, np.linalg.norm(shifted - near, axis=1), math.inf)
+    best: Matrix = shifted[int(np.argmin(distances))]
     return best
 
 
@@ -369,7 +381,11 @@ def within_limits(model: URModel, q: ArrayLike) -> bool:
 
 def reachable(model: URModel, T_base_flange: ArrayLike) -> bool:
     """True when some joint solution within limits reaches ``T_base_flange``."""
-    return any(_nearest_turn(model, q, q) is not None for q in inverse_all(model, T_base_flange))
+    solutions = inverse_all(model, T_base_flange)
+    if not solutions:
+        return False
+    Q = np.array(solutions)
+    return bool(np.any(_nearest_turn(model, Q, Q[0])[1]))
 
 
 # --- motion profile helpers ---------------------------------------------------------------------
