@@ -23,10 +23,20 @@ ROOT = Path(__file__).resolve().parents[1]
 HOST = "127.0.0.1"
 READY_TIMEOUT_S = 20.0
 CONTROLLER = [
-    sys.executable, "-m", "mocks.ur_controller",
-    "--host", HOST,
-    "--tcp-offset", "0", "0", "0.12", "0", "0", "0",  # as robot.tcp_offset in config/demo.yaml
-    "--speed-factor", "2",  # twice real time: fast, and still slow enough to follow
+    sys.executable,
+    "-m",
+    "mocks.ur_controller",
+    "--host",
+    HOST,
+    "--tcp-offset",
+    "0",
+    "0",
+    "0.12",
+    "0",
+    "0",
+    "0",  # as robot.tcp_offset in config/demo.yaml
+    "--speed-factor",
+    "2",  # twice real time: fast, and still slow enough to follow
 ]
 PICK_ARGS = ["pick", "--config", "config/demo.yaml", "--detection", "config/demo/detection.yaml"]
 # The installed console script may not be on PATH (venv not activated): call its function.
@@ -55,8 +65,10 @@ def _wait_ready(controller: subprocess.Popen[str]) -> bool:
             )
             return False
         if time.monotonic() > deadline:
-            print(f"the simulated controller was not ready within {READY_TIMEOUT_S:.0f} s",
-                  file=sys.stderr)
+            print(
+                f"the simulated controller was not ready within {READY_TIMEOUT_S:.0f} s",
+                file=sys.stderr,
+            )
             return False
     return True
 

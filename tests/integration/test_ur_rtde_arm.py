@@ -98,8 +98,10 @@ def test_safety_queries(sim_controller: SimFactory) -> None:
     assert ctl.commands == []
 
 
-@pytest.mark.parametrize(("bank", "field"), [(OutputBank.TOOL, "tool_digital_out"),
-                                             (OutputBank.STANDARD, "standard_digital_out")])
+@pytest.mark.parametrize(
+    ("bank", "field"),
+    [(OutputBank.TOOL, "tool_digital_out"), (OutputBank.STANDARD, "standard_digital_out")],
+)
 def test_digital_output(sim_controller: SimFactory, bank: OutputBank, field: str) -> None:
     ctl = sim_controller(instant=True)
     with URRtdeArm(ctl.host, with_io=True) as arm:

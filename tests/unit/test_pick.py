@@ -33,10 +33,18 @@ ROOT = Path(__file__).resolve().parents[2]
 DEMO_HAND_EYE = ROOT / "config" / "demo" / "hand_eye.yaml"
 T_FLANGE_TCP = ur_pose_to_matrix([0.0, 0.0, 0.12, 0.0, 0.0, 0.0])
 # Flange 0.5 m above the base plane, tool down (pi about base x), turned 30 deg about base z.
-T_BASE_FLANGE = make_transform(rotation_from_euler([180.0, 0.0, 30.0], "xyz", "deg"),
-                               [-0.45, -0.10, 0.50])
-READY = RobotStatus("5.15.0", robot_mode=7, safety_mode=1, runtime_state=2, remote_control=True,
-                    protective_stopped=False, emergency_stopped=False)
+T_BASE_FLANGE = make_transform(
+    rotation_from_euler([180.0, 0.0, 30.0], "xyz", "deg"), [-0.45, -0.10, 0.50]
+)
+READY = RobotStatus(
+    "5.15.0",
+    robot_mode=7,
+    safety_mode=1,
+    runtime_state=2,
+    remote_control=True,
+    protective_stopped=False,
+    emergency_stopped=False,
+)
 
 
 class ScriptedArm:
@@ -159,7 +167,12 @@ def _run(
 ) -> tuple[object, list[dict[str, object]]]:
     audit = AuditLog(config.audit.file)
     result = run_pick(
-        config, _calibration(config), detection, arm, audit, dry_run=dry_run,
+        config,
+        _calibration(config),
+        detection,
+        arm,
+        audit,
+        dry_run=dry_run,
         progress=Progress.quiet(),
     )
     return result, _records(config.audit.file)
@@ -274,8 +287,11 @@ def test_fault_during_grasp_records_reached_steps_and_controller_state(tmp_path:
     assert outcome["step"] == "grasp"
     assert set(outcome["reached"]) == {"approach"}  # type: ignore[arg-type]
     assert outcome["error"] == {
-        "type": "RobotFault", "message": "protective stop", "safety_mode": 3,
-        "runtime_state": 2, "robot_mode": None,
+        "type": "RobotFault",
+        "message": "protective stop",
+        "safety_mode": 3,
+        "runtime_state": 2,
+        "robot_mode": None,
     }
 
 

@@ -81,6 +81,18 @@ _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
 )
 
 
+# Why a controller refuses to start a program, and what the operator does about it.
+_STOP_ADVICE: dict[int, str] = {
+    SafetyMode.PROTECTIVE_STOP: "a protective stop is active: remove its cause, then press "
+    "'Enable robot' on the pendant (nothing unlocks it automatically)",
+    SafetyMode.ROBOT_EMERGENCY_STOP: "an emergency stop is active: make the cell safe, release "
+    "the emergency stop button, then power on and release the brakes",
+    SafetyMode.SYSTEM_EMERGENCY_STOP: "a system emergency stop is active: make the cell safe, "
+    "reset it, then power on and release the brakes",
+    SafetyMode.SAFEGUARD_STOP: "a safeguard stop is active: close and reset the safeguard",
+}
+
+
 def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
     """Stop the running program through a fresh dashboard connection (plain socket, bounded).
 
@@ -345,8 +357,7 @@ class URRtdeArm:
             # The operation id changes when the move starts, so a move that ended before this
             # first look still reads as done.
             done = (
-                not sample.async_running
-                and sample.async_operation_id != start.async_operation_id
+                not sample.async_running and sample.async_operation_id != start.async_operation_id
             )
             if on_progress is not None:
                 T_now = ur_pose_to_matrix(sample.tcp_pose)
@@ -467,6 +478,19 @@ class URRtdeArm:
         self._conn.close()
 
     def _connect_error(self, failure: Failure) -> RobotError | SafetyRefusal:
+        if failure.safety_mode is not None and failure.robot_mode is not None:
+            advice = _STOP_ADVICE.get(failure.safety_mode)
+            if advice is None and failure.robot_mode != RobotMode.RUNNING:
+                advice = (
+                    f"the arm is not running (robot mode "
+                    f"{_enum_name(RobotMode, failure.robot_mode)}): power it on and release the "
+                    "brakes on the pendant"
+                )
+            if advice is not None:
+                return SafetyRefusal(
+                    f"connect to {self.host}: the controller cannot run ur_rtde's control "
+                    f"program: {advice} (ur_rtde: {failure.message})"
+                )
         for fragment, hint in _CONNECT_ERROR_HINTS:
             if fragment in failure.message:
                 message = f"connect to {self.host}: {hint} (ur_rtde: {failure.message})"

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any
 
+from handeye_pick.robot.port import RobotMode, SafetyMode
+
 FRESH_SAMPLE_TIMEOUT_S = 0.5
 """How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
 
@@ -37,11 +39,27 @@ class Hello:
 
 @dataclass(frozen=True)
 class Failure:
-    """An exception raised in the child, by type name and message (ur_rtde raises RuntimeError)."""
+    """An exception raised in the child, by type name and message (ur_rtde raises RuntimeError).
+
+    ``safety_mode`` and ``robot_mode`` are set when the control interface failed to connect
+    but the receive interface had: they tell why the controller refused to run the program.
+    """
 
     operation: str
     exception_type: str
     message: str
+    safety_mode: int | None = None
+    robot_mode: int | None = None
+
+
+class _ConnectRefused(Exception):
+    """The control interface failed after the receive interface connected."""
+
+    def __init__(self, cause: Exception, safety_mode: int, robot_mode: int) -> None:
+        super().__init__(str(cause))
+        self.cause = cause
+        self.safety_mode = safety_mode
+        self.robot_mode = robot_mode
 
 
 @dataclass(frozen=True)
@@ -75,7 +93,26 @@ class _Session:
         import rtde_receive
 
         self._receive: Any = rtde_receive.RTDEReceiveInterface(host)
-        self._control: Any = rtde_control.RTDEControlInterface(host)
+        safety_mode, robot_mode = (
+            int(self._receive.getSafetyMode()),
+            int(self._receive.getRobotMode()),
+        )
+        if (
+            safety_mode not in (SafetyMode.NORMAL, SafetyMode.REDUCED)
+            or robot_mode != RobotMode.RUNNING
+        ):
+            # The control script could not start; ur_rtde would try for 5 s before saying so.
+            raise _ConnectRefused(
+                RuntimeError("the controller cannot run a program in this state"),
+                safety_mode,
+                robot_mode,
+            )
+        try:
+            self._control: Any = rtde_control.RTDEControlInterface(host)
+        except RuntimeError as exc:  # e.g. the program cannot start during a protective stop
+            raise _ConnectRefused(
+                exc, int(self._receive.getSafetyMode()), int(self._receive.getRobotMode())
+            ) from exc
         self._io: Any = rtde_io.RTDEIOInterface(host) if with_io else None
         self._dashboard: Any = dashboard_client.DashboardClient(host)
         self._dashboard.connect()
@@ -149,7 +186,6 @@ class _Session:
         return self._io
 
 
-
 def serve(conn: Connection, host: str, with_io: bool) -> None:
     """Connect, announce, answer requests until ``close`` or EOF (the parent is gone)."""
     # Only the parent decides when to stop the robot; its own session keeps a terminal's Ctrl-C
@@ -157,9 +193,15 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         session = _Session(host, with_io)
+    except _ConnectRefused as exc:
+        failure = Failure(
+            "connect", type(exc.cause).__name__, str(exc), exc.safety_mode, exc.robot_mode
+        )
+        conn.send(failure)
+        os._exit(0)
     except Exception as exc:  # every failure goes back to the parent, typed there
         conn.send(Failure("connect", type(exc).__name__, str(exc)))
-        return
+        os._exit(0)
     conn.send(Hello(session.controller_version))
     operations: dict[str, Callable[..., object]] = {
         "sample": session.sample,
