@@ -84,7 +84,7 @@ def _run_pick() -> int:
 
 
 def main() -> int:
-    print(f"$ {' '.join(CONTROLLER[1:])}", flush=True)
+    print(f"$ python {' '.join(CONTROLLER[1:])}", flush=True)
     controller = subprocess.Popen(
         CONTROLLER, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
     )
