@@ -34,7 +34,7 @@ LIMIT_TOLERANCE_RAD = 1e-6
 """A joint solved this close beyond a limit is round-off (a stretched arm solves q3 to ~1e-7)."""
 
 SINGULAR_WRIST_TOLERANCE = 1e-12
-"""|sin q5| below this makes q4 and q6 indistinguishable: q6 is then chosen by the caller."""
+"""|sin q5| below this is a singular wrist: q6 is then free and chosen (see ``_singular_q6``)."""
 
 _ROTATION_TOLERANCE = 1e-6
 _FULL_TURN = 2.0 * math.pi
@@ -135,10 +135,12 @@ def matrix_to_pose(T: ArrayLike) -> Matrix:
 
 
 def _invert(T: Matrix) -> Matrix:
-    """Closed-form inverse of a rigid transform."""
-    inv = np.eye(4)
-    inv[:3, :3] = T[:3, :3].T
-    inv[:3, 3] = -T[:3, :3].T @ T[:3, 3]
+    """Closed-form inverse of a rigid transform, or of each in a stack (..., 4, 4)."""
+    R_t = np.swapaxes(T[..., :3, :3], -1, -2)
+    inv = np.zeros_like(T)
+    inv[..., :3, :3] = R_t
+    inv[..., :3, 3] = -(R_t @ T[..., :3, 3:])[..., 0]
+    inv[..., 3, 3] = 1.0
     return inv
 
 
@@ -157,20 +159,6 @@ def flange_from_tcp(T_base_tcp: ArrayLike, tcp_offset_pose: ArrayLike) -> Matrix
 # --- forward and inverse kinematics -------------------------------------------------------------
 
 
-def _dh(theta: float, d: float, a: float, alpha: float) -> Matrix:
-    """Standard DH link transform Rz(theta) Tz(d) Tx(a) Rx(alpha)."""
-    ct, st = math.cos(theta), math.sin(theta)
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    return np.array(
-        [
-            [ct, -st * ca, st * sa, a * ct],
-            [st, ct * ca, -ct * sa, a * st],
-            [0.0, sa, ca, d],
-            [0.0, 0.0, 0.0, 1.0],
-        ]
-    )
-
-
 def forward(model: URModel, q: ArrayLike) -> Matrix:
     """``T_base_flange`` (4x4, m) for joint angles ``q`` (6, rad)."""
     joints = _vector(q, 6, "forward", "q")
@@ -178,20 +166,28 @@ def forward(model: URModel, q: ArrayLike) -> Matrix:
     return T_base_flange
 
 
-def _forward_many(model: URModel, Q: Matrix) -> Matrix:
-    """``T_base_flange`` for each row of ``Q`` (n, 6): shape (n, 4, 4). One numpy pass for all."""
+def _links(model: URModel, Q: Matrix) -> Matrix:
+    """DH link transforms for each row of ``Q`` (n, 6): shape (n, 6, 4, 4), link i-1 -> i.
+
+    Standard DH: Rz(theta) Tz(d) Tx(a) Rx(alpha).
+    """
     ct, st = np.cos(Q), np.sin(Q)
     ca, sa = np.cos(model.alpha), np.sin(model.alpha)
     a, d = np.asarray(model.a), np.asarray(model.d)
     zero, one = np.zeros_like(Q), np.ones_like(Q)
-    # Standard DH link i-1 -> i: Rz(theta) Tz(d) Tx(a) Rx(alpha), shape (n, 6, 4, 4).
     rows = [
         [ct, -st * ca, st * sa, a * ct],
         [st, ct * ca, -ct * sa, a * st],
         [zero, sa + zero, ca + zero, d + zero],
         [zero, zero, zero, one],
     ]
-    links = np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    links: Matrix = np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
+    return links
+
+
+def _forward_many(model: URModel, Q: Matrix) -> Matrix:
+    """``T_base_flange`` for each row of ``Q`` (n, 6): shape (n, 4, 4). One numpy pass for all."""
+    links = _links(model, Q)
     T = links[:, 0]
     for i in range(1, 6):
         T = T @ links[:, i]
@@ -235,11 +231,11 @@ def inverse_all(
     phi = math.atan2(float(p05[1]), float(p05[0]))
     q1_options = [phi + math.atan2(d4, along), phi + math.atan2(d4, -along)]
 
-    candidates: list[list[float]] = []
+    # Joints 1, 5, 6 for each shoulder and wrist branch.
+    wrist_rows: list[list[float]] = []
     for q1 in q1_options:
         # Joint 1's axis z1 expressed in the flange frame is [s5 c6, -s5 s6, c5].
-        z1_in_base = np.array([math.sin(q1), -math.cos(q1), 0.0])
-        z1_in_flange = R.T @ z1_in_base
+        z1_in_flange = R.T @ np.array([math.sin(q1), -math.cos(q1), 0.0])
         c5 = float(z1_in_flange[2])
         s5_abs = math.hypot(float(z1_in_flange[0]), float(z1_in_flange[1]))
         for wrist_sign in (1.0, -1.0):
@@ -250,21 +246,25 @@ def inverse_all(
                 q6 = math.atan2(
                     -wrist_sign * float(z1_in_flange[1]), wrist_sign * float(z1_in_flange[0])
                 )
-            T_14 = _T_1_4(model, T, q1, q5, q6)
-            # Joints 2-4 form a planar arm in the x-y plane of frame 1.
-            x, y = float(T_14[0, 3]), float(T_14[1, 3])
-            c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
-            s3_abs = _branch_sqrt(1.0 - c3 * c3, 1e-9)
-            if s3_abs is None:
-                continue
-            c3 = max(-1.0, min(1.0, c3))
-            q234 = math.atan2(float(T_14[1, 0]), float(T_14[0, 0]))
-            for elbow_sign in (1.0, -1.0):
-                s3 = elbow_sign * s3_abs
-                q3 = math.atan2(s3, c3)
-                q2 = math.atan2(y, x) - math.atan2(a3 * s3, a2 + a3 * c3)
-                q4 = q234 - q2 - q3
-                candidates.append([q1, q2, q3, q4, q5, q6])
+            wrist_rows.append([q1, q5, q6])
+
+    candidates: list[list[float]] = []
+    T_14_rows = _T_1_4(model, T, np.array(wrist_rows))
+    for (q1, q5, q6), T_14 in zip(wrist_rows, T_14_rows, strict=True):
+        # Joints 2-4 form a planar arm in the x-y plane of frame 1.
+        x, y = float(T_14[0, 3]), float(T_14[1, 3])
+        c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
+        s3_abs = _branch_sqrt(1.0 - c3 * c3, 1e-9)
+        if s3_abs is None:
+            continue
+        c3 = max(-1.0, min(1.0, c3))
+        q234 = math.atan2(float(T_14[1, 0]), float(T_14[0, 0]))
+        for elbow_sign in (1.0, -1.0):
+            s3 = elbow_sign * s3_abs
+            q3 = math.atan2(s3, c3)
+            q2 = math.atan2(y, x) - math.atan2(a3 * s3, a2 + a3 * c3)
+            q4 = q234 - q2 - q3
+            candidates.append([q1, q2, q3, q4, q5, q6])
     if not candidates:
         return []
     Q = _wrap_pi(np.array(candidates))
@@ -276,12 +276,15 @@ def inverse_all(
     return list(Q[~repeats])
 
 
-def _T_1_4(model: URModel, T_base_flange: Matrix, q1: float, q5: float, q6: float) -> Matrix:
-    """Frame 4 in frame 1 once joints 1, 5 and 6 are fixed: what the planar arm must reach."""
-    T_0_1 = _dh(q1, model.d[0], model.a[0], model.alpha[0])
-    T_4_5 = _dh(q5, model.d[4], model.a[4], model.alpha[4])
-    T_5_6 = _dh(q6, model.d[5], model.a[5], model.alpha[5])
-    return _invert(T_0_1) @ T_base_flange @ _invert(T_4_5 @ T_5_6)
+def _T_1_4(model: URModel, T_base_flange: Matrix, q1_q5_q6: Matrix) -> Matrix:
+    """Frame 4 in frame 1 for each row [q1, q5, q6] (n, 3): what the planar arm must reach."""
+    q = np.zeros((len(q1_q5_q6), 6))
+    q[:, [0, 4, 5]] = q1_q5_q6
+    links = _links(model, q)
+    T_1_0 = _invert(links[:, 0])
+    T_4_6 = links[:, 4] @ links[:, 5]
+    T_1_4: Matrix = T_1_0 @ T_base_flange @ _invert(T_4_6)
+    return T_1_4
 
 
 def _singular_q6(
@@ -295,13 +298,11 @@ def _singular_q6(
     on the annulus edge is used instead (a stretched or folded arm).
     """
 
-    def origin_4(q6: float) -> Matrix:
-        xy: Matrix = _T_1_4(model, T_base_flange, q1, q5, q6)[:2, 3]
-        return xy
-
-    centre = 0.5 * (origin_4(0.0) + origin_4(math.pi))
-    at_0 = origin_4(0.0) - centre
-    at_90 = origin_4(math.pi / 2) - centre
+    rows = np.array([[q1, q5, 0.0], [q1, q5, math.pi / 2], [q1, q5, math.pi]])
+    origin_0, origin_90, origin_180 = _T_1_4(model, T_base_flange, rows)[:, :2, 3]
+    centre = 0.5 * (origin_0 + origin_180)
+    at_0 = origin_0 - centre
+    at_90 = origin_90 - centre
     # Angle of the origin on the circle: psi = turn * q6 + offset, seen from joint 2's direction.
     turn = 1.0 if at_0[0] * at_90[1] - at_0[1] * at_90[0] > 0.0 else -1.0
     offset = math.atan2(float(at_0[1]), float(at_0[0])) - math.atan2(
@@ -381,11 +382,7 @@ def within_limits(model: URModel, q: ArrayLike) -> bool:
 
 def reachable(model: URModel, T_base_flange: ArrayLike) -> bool:
     """True when some joint solution within limits reaches ``T_base_flange``."""
-    solutions = inverse_all(model, T_base_flange)
-    if not solutions:
-        return False
-    Q = np.array(solutions)
-    return bool(np.any(_nearest_turn(model, Q, Q[0])[1]))
+    return inverse(model, T_base_flange, np.zeros(6)) is not None
 
 
 # --- motion profile helpers ---------------------------------------------------------------------
