@@ -127,7 +127,7 @@ def test_nearest_solution_to_q_is_q(name: str, q: NDArray[np.float64]) -> None:
     model = MODELS[name]
     solution = inverse(model, forward(model, q), q)
     assert solution is not None
-    np.testing.assert_allclose(solution, q, atol=JOINT_TOLERANCE_RAD)
+    np.testing.assert_allclose(solution, q, atol=1e-9)
 
 
 @settings(max_examples=200, deadline=None)
