@@ -223,3 +223,21 @@ def test_protective_stop_refuses_a_move(sim_controller: SimFactory) -> None:
             arm.move_linear(target, 0.25, 1.2, timeout_s=5.0)
     assert caught.value.safety_mode == SafetyMode.PROTECTIVE_STOP
     assert [c["kind"] for c in ctl.commands if c["kind"] in MOTION_KINDS] == []
+
+
+def test_no_move_is_sent_after_a_drop_between_moves(sim_controller: SimFactory) -> None:
+    # ur_rtde's control interface reconnects by itself after a drop; no motion may go through
+    # it, whichever layer (our link check, ur_rtde's own program check) catches it first.
+    ctl = sim_controller(instant=True)
+    with URRtdeArm(ctl.host) as arm:
+        target = _lowered(arm.tcp_pose(), 0.05)
+        ctl.inject("drop-connection")
+        assert _eventually(lambda: ctl.commands == [] and not ctl.snapshot().moving)
+        time.sleep(0.5)  # let ur_rtde's own reconnect attempt run
+        with pytest.raises(RobotConnectionError):
+            arm.move_linear(target, 0.25, 1.2, timeout_s=5.0)
+    assert motion_kinds(ctl) == []
+
+
+def motion_kinds(ctl: SimulatedController) -> list[str]:
+    return [c["kind"] for c in ctl.commands if c["kind"] in MOTION_KINDS]

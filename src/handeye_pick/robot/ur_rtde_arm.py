@@ -280,6 +280,7 @@ class URRtdeArm:
         target = _to_ur_list(T_base_tcp)
         try:
             start = self._sample("sample")
+            self._check_motion_sample(start)  # never start a move on a broken link or stop
             log.debug("moveL %s v=%.3f a=%.3f", _fmt_pose(target), speed_mps, accel_mps2)
             accepted = self._call("move_l_async", target, speed_mps, accel_mps2)
             if not accepted:
@@ -370,17 +371,17 @@ class URRtdeArm:
 
     def _check_motion_sample(self, sample: Sample) -> None:
         if not (sample.receive_connected and sample.control_connected):
-            self._dead_reason = "the RTDE connection dropped during moveL"
+            self._dead_reason = "the RTDE connection dropped"
             raise RobotConnectionError(f"moveL on {self.host}: {self._dead_reason}")
         if sample.protective_stopped or sample.emergency_stopped:
             kind = "protective stop" if sample.protective_stopped else "emergency stop"
-            raise self._fault(f"moveL aborted by a {kind}", sample)
+            raise self._fault(f"moveL: {kind} active", sample)
         if sample.safety_mode not in (SafetyMode.NORMAL, SafetyMode.REDUCED):
-            raise self._fault("moveL aborted: the controller left normal safety mode", sample)
+            raise self._fault("moveL: the controller is not in normal safety mode", sample)
         if sample.runtime_state != RuntimeState.PLAYING:
-            raise self._fault("moveL aborted: the control program stopped", sample)
+            raise self._fault("moveL: the control program is not running", sample)
         if sample.robot_mode != RobotMode.RUNNING:
-            raise self._fault("moveL aborted: the robot is no longer running", sample)
+            raise self._fault("moveL: the arm is not running", sample)
 
     def _check_reached(self, sample: Sample, T_target: Transform) -> None:
         """The async move reported its end: make sure it ended at the target, not short of it
@@ -503,7 +504,7 @@ class URRtdeArm:
 
     def _call_error(self, failure: Failure) -> RobotError:
         text = f"{failure.operation} on {self.host}: {failure.exception_type}: {failure.message}"
-        if failure.operation == "fresh_sample":  # the receive stream is stale or gone
+        if failure.exception_type == "LinkLost":  # the receive stream is stale or gone
             self._dead_reason = failure.message
             self._kill()
             return RobotConnectionError(text)

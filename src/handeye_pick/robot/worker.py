@@ -52,6 +52,10 @@ class Failure:
     robot_mode: int | None = None
 
 
+class LinkLost(Exception):
+    """The RTDE stream is gone or stale; the parent ends the session on this type name."""
+
+
 class _ConnectRefused(Exception):
     """The control interface failed after the receive interface connected."""
 
@@ -149,12 +153,19 @@ class _Session:
         deadline = time.monotonic() + FRESH_SAMPLE_TIMEOUT_S
         while float(r.getTimestamp()) <= start:
             if not r.isConnected() or time.monotonic() > deadline:
-                raise RuntimeError(
+                raise LinkLost(
                     f"no RTDE sample newer than controller time {start:.3f} s within "
                     f"{FRESH_SAMPLE_TIMEOUT_S} s (receive connected: {r.isConnected()})"
                 )
             time.sleep(0.0002)
         return self.sample()
+
+    def require_link(self) -> None:
+        """Refuse any controller call once the receive stream died: the control interface may
+        have reconnected by itself since, and nothing may be sent through such a link. The
+        receive interface never reconnects, so its state tells whether the link ever broke."""
+        if not self._receive.isConnected():
+            raise LinkLost("the RTDE connection was lost")
 
     def remote_control(self) -> bool:
         return bool(self._dashboard.isInRemoteControl())
@@ -226,6 +237,8 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
             # (no STOP_SCRIPT, no RTDE pause); its destructors would add 0.5 s sleeps each.
             os._exit(0)
         try:
+            if operation != "sample":
+                session.require_link()
             conn.send(("ok", operations[operation](*args)))
         except Exception as exc:
             conn.send(Failure(operation, type(exc).__name__, str(exc)))
