@@ -26,6 +26,19 @@ def loopback_host() -> str:
     return next_loopback_host()
 
 
+def start_sim_controller(**kwargs: Any) -> SimulatedController:
+    """Start a SimulatedController (kwargs as its constructor's) on a free loopback address.
+
+    Another test session on this machine may hold an address (its ports are busy): move on."""
+    for _ in range(20):
+        ctl = SimulatedController(host=next_loopback_host(), **kwargs)
+        try:
+            return ctl.start()
+        except OSError:
+            continue
+    raise RuntimeError("no free 127.0.0.N address for a simulated controller after 20 tries")
+
+
 @pytest.fixture
 def sim_controller() -> Iterator[Callable[..., SimulatedController]]:
     """Factory: `sim_controller(**kwargs)` starts a SimulatedController on a fresh loopback
@@ -33,8 +46,7 @@ def sim_controller() -> Iterator[Callable[..., SimulatedController]]:
     started: list[SimulatedController] = []
 
     def start(**kwargs: Any) -> SimulatedController:
-        ctl = SimulatedController(host=next_loopback_host(), **kwargs)
-        ctl.start()
+        ctl = start_sim_controller(**kwargs)
         started.append(ctl)
         return ctl
 

@@ -16,7 +16,7 @@ from dataclasses import asdict
 from types import FrameType
 from typing import Any
 
-from mocks.ur_controller.controller import Controller
+from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, Controller
 
 
 class _Shutdown(Exception):
@@ -113,7 +113,7 @@ def main(argv: list[str] | None = None) -> int:
         logging.getLogger("mocks.ur_controller").info("stopping on %s", exc)
     except OSError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return 1
+        return EXIT_CANNOT_LISTEN
     finally:
         ctl.stop()
     return 0

@@ -33,6 +33,7 @@ from mocks.ur_controller.script_port import ScriptPort, register_offsets
 log = logging.getLogger("mocks.ur_controller")
 
 CYCLE_S = 0.002  # e-Series control cycle, 500 Hz
+EXIT_CANNOT_LISTEN = 3  # command-line exit status: a port is taken or the address is not local
 
 ROBOT_MODE_POWER_OFF = 3
 ROBOT_MODE_IDLE = 5

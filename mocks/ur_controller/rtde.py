@@ -257,14 +257,21 @@ class RtdeServer:
 
     def _receive_inputs(self, conn: _Connection, payload: bytes) -> None:
         recipe = conn.inputs.get(payload[0]) if payload else None
-        if recipe is None or len(payload) != recipe.struct.size:
+        if recipe is None or len(payload) < recipe.struct.size:
             expected = "unknown recipe" if recipe is None else f"{recipe.struct.size} bytes"
             log.warning(
                 "rtde: dropping malformed data package: recipe %s, %d bytes, expected %s",
                 payload[0] if payload else None, len(payload), expected,
             )
             return
-        values = recipe.struct.unpack(payload)[1:]
+        if len(payload) > recipe.struct.size:
+            # ur_rtde 1.6.5 sends getForwardKinematics(q, tcp) as recipe 6 with 12 doubles.
+            # Dropping it would hang the client for 300 s; the recipe's own fields are applied.
+            log.warning(
+                "rtde: data package for recipe %d has %d bytes, recipe needs %d: extra bytes "
+                "ignored", payload[0], len(payload), recipe.struct.size,
+            )
+        values = recipe.struct.unpack_from(payload)[1:]
         fields: dict[str, object] = {}
         index = 0
         for name, kind in zip(recipe.names, recipe.types, strict=True):

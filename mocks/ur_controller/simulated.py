@@ -17,7 +17,7 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from mocks.ur_controller.controller import ControllerSnapshot
+from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, ControllerSnapshot
 
 _REPO_ROOT = Path(__file__).resolve().parents[2]
 _START_TIMEOUT_S = 30.0
@@ -67,7 +67,11 @@ class SimulatedController:
     # --- lifetime ---------------------------------------------------------------------------
 
     def start(self) -> SimulatedController:
-        """Start the child process; returns once 30004, 29999 and 30003 listen."""
+        """Start the child process; returns once 30004, 29999 and 30003 listen.
+
+        Raises OSError when a port cannot be bound (taken, or the address is not local) and
+        RuntimeError for anything else that keeps the controller from starting.
+        """
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_REPO_ROOT),
                                                           env.get("PYTHONPATH")]))
@@ -80,6 +84,9 @@ class SimulatedController:
         if not first_line.startswith("ready"):
             code = process.wait(timeout=5.0)
             self._process = None
+            if code == EXIT_CANNOT_LISTEN:
+                raise OSError(f"simulated controller cannot listen on {self.host} "
+                              f"(its stderr says why)")
             raise RuntimeError(f"simulated controller on {self.host} did not start: exit code "
                                f"{code}, output {first_line!r} (its stderr says why)")
         return self
