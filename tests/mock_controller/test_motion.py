@@ -1,0 +1,184 @@
+"""Motion in real time: async moves and the progress word, straight lines, stops, the watchdog,
+the kill path of a second control client, unimplemented commands."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Iterator
+
+import numpy as np
+import pytest
+import rtde_control
+import rtde_receive
+
+from mocks.ur_controller import SimulatedController
+from tests.conftest import start_sim_controller
+from tests.mock_controller.helpers import assert_same_pose
+
+HOME_Q = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
+
+
+@pytest.fixture(scope="module")
+def ctl() -> Iterator[SimulatedController]:
+    controller = start_sim_controller(initial_q=HOME_Q)  # real-time motion
+    yield controller
+    controller.stop()
+
+
+@pytest.fixture(scope="module")
+def receive(ctl: SimulatedController) -> Iterator[rtde_receive.RTDEReceiveInterface]:
+    r = rtde_receive.RTDEReceiveInterface(ctl.host)
+    yield r
+    r.disconnect()
+
+
+@pytest.fixture(scope="module")
+def control(ctl: SimulatedController) -> Iterator[rtde_control.RTDEControlInterface]:
+    c = rtde_control.RTDEControlInterface(ctl.host)
+    yield c
+    c.disconnect()
+
+
+@pytest.fixture
+def running(ctl: SimulatedController, control: rtde_control.RTDEControlInterface) -> None:
+    """The control script running (an earlier test may have stopped it)."""
+    if not ctl.snapshot().program_running:
+        assert control.reuploadScript()
+        wait_for(control.isProgramRunning)
+
+
+def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not met within the timeout")
+        time.sleep(0.002)
+
+
+def test_async_movel_reports_progress_and_follows_a_straight_line(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface,
+    receive: rtde_receive.RTDEReceiveInterface, running: None,
+) -> None:
+    start = np.array(receive.getActualTCPPose())
+    target = start.copy()
+    target[:3] += [0.06, 0.0, -0.08]  # 0.1 m at 0.25 m/s: about 0.6 s
+    assert control.moveL(target.tolist(), 0.25, 1.2, True)
+    assert control.getAsyncOperationProgress() == 0  # running, single move: progress 0
+    status = control.getAsyncOperationProgressEx()
+    assert status.isAsyncOperationRunning()
+    samples = []
+    while control.getAsyncOperationProgress() >= 0:
+        samples.append(receive.getActualTCPPose())
+        time.sleep(0.01)
+    assert control.getAsyncOperationProgress() < 0
+    assert not control.getAsyncOperationProgressEx().isAsyncOperationRunning()
+    assert len(samples) > 10
+    direction = (target[:3] - start[:3]) / np.linalg.norm(target[:3] - start[:3])
+    for pose in samples:
+        offset = np.array(pose[:3]) - start[:3]
+        off_line = offset - np.dot(offset, direction) * direction
+        assert np.linalg.norm(off_line) < 1e-6  # on the straight line
+        assert_same_pose([0, 0, 0, *pose[3:]], [0, 0, 0, *start[3:]], tol=1e-6)
+    along = [np.dot(np.array(p[:3]) - start[:3], direction) for p in samples]
+    assert along == sorted(along)  # never goes back
+    wait_for(lambda: not ctl.snapshot().moving)
+    assert_same_pose(ctl.snapshot().tcp_pose, target.tolist())
+    assert ctl.commands[-1]["async"] is True
+
+
+def test_async_movej_interpolates_joints(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface,
+    receive: rtde_receive.RTDEReceiveInterface, running: None,
+) -> None:
+    q0 = np.array(receive.getActualQ())
+    q1 = q0 + [0.3, -0.1, 0.2, 0.0, 0.1, -0.2]
+    assert control.moveJ(q1.tolist(), 1.0, 2.0, True)
+    fractions = []
+    while control.getAsyncOperationProgress() >= 0:
+        q = np.array(receive.getActualQ())
+        movable = q1 != q0
+        s = (q - q0)[movable] / (q1 - q0)[movable]
+        np.testing.assert_allclose(s, s[0], atol=1e-9)
+        fractions.append(float(s[0]))
+        time.sleep(0.01)
+    assert fractions == sorted(fractions)
+    assert any(0.1 < f < 0.9 for f in fractions)
+    wait_for(lambda: np.allclose(receive.getActualQ(), q1))
+
+
+def test_stopl_halts_an_async_move_midway(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface,
+    receive: rtde_receive.RTDEReceiveInterface, running: None,
+) -> None:
+    start = np.array(receive.getActualTCPPose())
+    target = start.copy()
+    target[2] -= 0.3  # about 1.4 s
+    assert control.moveL(target.tolist(), 0.25, 1.2, True)
+    wait_for(lambda: receive.getActualTCPPose()[2] < start[2] - 0.02)
+    control.stopL(10.0)
+    assert control.getAsyncOperationProgress() < 0
+    snap = ctl.snapshot()
+    assert not snap.moving
+    assert target[2] < snap.tcp_pose[2] < start[2] - 0.02
+    assert [c["kind"] for c in ctl.commands[-2:]] == ["moveL", "stopL"]
+    assert control.isSteady()
+
+
+def test_new_async_move_replaces_the_running_one(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface,
+    receive: rtde_receive.RTDEReceiveInterface, running: None,
+) -> None:
+    start = np.array(receive.getActualTCPPose())
+    first, second = start.copy(), start.copy()
+    first[0] += 0.3
+    second[1] += 0.05
+    assert control.moveL(first.tolist(), 0.25, 1.2, True)
+    op_first = control.getAsyncOperationProgressEx().operationId()
+    assert control.moveL(second.tolist(), 0.25, 1.2, True)
+    assert control.getAsyncOperationProgressEx().operationId() != op_first
+    wait_for(lambda: control.getAsyncOperationProgress() < 0)
+    snap = ctl.snapshot()
+    assert abs(snap.tcp_pose[1] - second[1]) < 1e-9
+    assert snap.tcp_pose[0] < first[0] - 0.1  # the first move never finished
+
+
+def test_watchdog_stops_the_program_when_starved(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface, running: None,
+) -> None:
+    assert control.setWatchdog(20.0)
+    for _ in range(30):  # 0.3 s of kicks at 100 Hz keeps it alive
+        assert control.kickWatchdog()
+        time.sleep(0.01)
+    assert ctl.snapshot().program_running
+    wait_for(lambda: not control.isProgramRunning(), timeout_s=2.0)
+    assert ctl.snapshot().runtime_state == 1
+
+
+def test_unimplemented_command_fails_and_stops_the_program(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface, running: None,
+) -> None:
+    assert not control.forceModeStop()  # id 7 is not emulated
+    assert not ctl.snapshot().program_running
+
+
+def test_second_control_client_kills_the_running_program_and_takes_over(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface, running: None,
+) -> None:
+    # The module's client keeps its connection: a second one would collide on the input
+    # registers (IN_USE), as on a real controller.
+    with pytest.raises(RuntimeError, match="already in use"):
+        rtde_control.RTDEControlInterface(ctl.host)
+    first = start_sim_controller(instant=True)
+    try:
+        c1 = rtde_control.RTDEControlInterface(first.host)
+        c1.disconnect()
+        assert first.snapshot().program_running  # the program outlives its client
+        c2 = rtde_control.RTDEControlInterface(first.host)
+        try:
+            assert c2.isProgramRunning()
+            assert c2.moveJ(HOME_Q)
+        finally:
+            c2.disconnect()
+    finally:
+        first.stop()
