@@ -164,6 +164,10 @@ class Controller:
 
     def start(self) -> Controller:
         """Start the control loop and listen on 30004, 29999 and 30003; returns when listening."""
+        with self.lock:
+            for fault in [f for f in self._faults if f.move_index is None]:
+                self._faults.remove(fault)
+                self._apply(fault)
         self._loop = threading.Thread(target=self._run, name="control-loop", daemon=True)
         self._loop.start()
         try:

@@ -1,0 +1,50 @@
+"""RTDEIOInterface against the simulated controller: setters land in the IO state."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import pytest
+import rtde_io
+import rtde_receive
+
+from mocks.ur_controller import SimulatedController
+
+
+def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not met within the timeout")
+        time.sleep(0.005)
+
+
+@pytest.mark.timeout(60)
+def test_io_setters_land_in_the_io_state(
+    sim_controller: Callable[..., SimulatedController],
+) -> None:
+    ctl = sim_controller(instant=True)
+    io = rtde_io.RTDEIOInterface(ctl.host)
+    receive = rtde_receive.RTDEReceiveInterface(ctl.host)
+    try:
+        assert io.setStandardDigitalOut(3, True)
+        assert io.setStandardDigitalOut(5, True)
+        assert io.setStandardDigitalOut(3, False)
+        assert io.setToolDigitalOut(1, True)
+        assert io.setConfigurableDigitalOut(2, True)
+        assert io.setSpeedSlider(0.4)
+        assert io.setAnalogOutputVoltage(1, 0.25)
+        wait_for(lambda: ctl.snapshot().standard_digital_out == 1 << 5)
+        snap = ctl.snapshot()
+        assert snap.tool_digital_out == 1 << 1
+        assert snap.configurable_digital_out == 1 << 2
+        wait_for(lambda: receive.getDigitalOutState(5))
+        assert not receive.getDigitalOutState(3)
+        assert receive.getDigitalOutState(8 + 2)  # configurable outputs are bits 8-15
+        assert receive.getDigitalOutState(16 + 1)  # tool outputs are bits 16-17
+        assert receive.getTargetSpeedFraction() == pytest.approx(0.4)
+        assert receive.getStandardAnalogOutput1() == pytest.approx(0.25)
+    finally:
+        receive.disconnect()
+        io.disconnect()  # sends P and blocks until it is answered
