@@ -92,7 +92,7 @@ def test_async_movej_interpolates_joints(
     receive: rtde_receive.RTDEReceiveInterface, running: None,
 ) -> None:
     q0 = np.array(receive.getActualQ())
-    q1 = q0 + [0.3, -0.1, 0.2, 0.0, 0.1, -0.2]
+    q1 = q0 + np.array([0.3, -0.1, 0.2, 0.0, 0.1, -0.2])
     assert control.moveJ(q1.tolist(), 1.0, 2.0, True)
     fractions = []
     while control.getAsyncOperationProgress() >= 0:
