@@ -22,10 +22,10 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import rtde_control  # noqa: E402
-import rtde_receive  # noqa: E402
+import rtde_control
+import rtde_receive
 
-from mocks.ur_controller import SimulatedController  # noqa: E402
+from mocks.ur_controller import SimulatedController
 
 HOME_Q = [0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]
 NAMES = "timestamp,actual_q,actual_TCP_pose,runtime_state,robot_status_bits,safety_status_bits,"

@@ -14,7 +14,7 @@ joint travel. Stops halt the arm where it is (no deceleration phase).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -44,8 +44,8 @@ class Motion:
     duration_s: float
     q_start: Vector
     q_target: Vector
-    T_base_tcp_start: Vector = field(default_factory=lambda: np.eye(4))
-    T_base_tcp_target: Vector = field(default_factory=lambda: np.eye(4))
+    T_base_tcp_start: Vector
+    T_base_tcp_target: Vector
     elapsed_s: float = 0.0
 
     @property

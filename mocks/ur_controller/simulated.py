@@ -150,11 +150,11 @@ class SimulatedController:
     def _read_line(self, timeout_s: float) -> str:
         """One line of the child's stdout; RuntimeError if none comes within timeout_s."""
         process = self._process
-        if process is None or process.stdout is None:
+        stdout = None if process is None else process.stdout
+        if stdout is None:
             raise RuntimeError(f"simulated controller on {self.host} is not running")
         lines: list[str] = []
-        reader = threading.Thread(target=lambda: lines.append(process.stdout.readline()),  # type: ignore[union-attr]
-                                  daemon=True)
+        reader = threading.Thread(target=lambda: lines.append(stdout.readline()), daemon=True)
         reader.start()
         reader.join(timeout_s)
         if not lines:
