@@ -182,3 +182,32 @@ def test_second_control_client_kills_the_running_program_and_takes_over(
             c2.disconnect()
     finally:
         first.stop()
+
+
+def test_movel_honours_speed_and_speed_factor() -> None:
+    """Speed measured against the controller's own timestamps: speed_factor 2 doubles it."""
+    fast = start_sim_controller(initial_q=HOME_Q, speed_factor=2.0)
+    try:
+        c = rtde_control.RTDEControlInterface(fast.host)
+        r = rtde_receive.RTDEReceiveInterface(fast.host)
+        try:
+            start = np.array(r.getActualTCPPose())
+            target = start.copy()
+            target[2] -= 0.25  # cruise phase at v = 0.25 m/s for most of the way
+            assert c.moveL(target.tolist(), 0.25, 1.2, True)
+            samples: list[tuple[float, float]] = []
+            while c.getAsyncOperationProgress() >= 0:
+                t0, z, t1 = r.getTimestamp(), r.getActualTCPPose()[2], r.getTimestamp()
+                if t0 == t1 and (not samples or t0 > samples[-1][0]):
+                    samples.append((t0, z))
+                time.sleep(0.01)
+        finally:
+            r.disconnect()
+            c.disconnect()
+    finally:
+        fast.stop()
+    times, heights = np.array(samples).T
+    speeds = np.abs(np.diff(heights) / np.diff(times))
+    assert len(speeds) > 10
+    assert np.max(speeds) <= 2 * 0.25 * 1.05
+    assert np.max(speeds) >= 2 * 0.25 * 0.9
