@@ -22,6 +22,7 @@ import threading
 import time
 from enum import IntEnum
 from multiprocessing.connection import Connection
+from pathlib import Path
 from types import TracebackType
 from typing import IO
 
@@ -43,10 +44,11 @@ from handeye_pick.robot.port import (
     RuntimeState,
     SafetyMode,
 )
-from handeye_pick.robot.worker import Failure, Hello, Sample
+from handeye_pick.robot.worker import Failure, Sample
 
 log = logging.getLogger(__name__)
 
+WORKER_SCRIPT = Path(__file__).with_name("worker.py")
 DASHBOARD_PORT = 29999
 POLL_PERIOD_S = 0.004
 """How often a running move is watched: two RTDE cycles at 500 Hz."""
@@ -180,7 +182,7 @@ class URRtdeArm:
         # its own session, so a Ctrl-C at the terminal reaches only this process, which then
         # still has a working child to send stopL through.
         self._process = subprocess.Popen(
-            [sys.executable, "-m", "handeye_pick.robot.worker", str(child_socket.fileno()), host]
+            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host]
             + (["--io"] if with_io else []),
             pass_fds=(child_socket.fileno(),),
             stdin=subprocess.DEVNULL,
@@ -195,18 +197,21 @@ class URRtdeArm:
         ).start()
         log.debug("connecting to %s (ur_rtde in child pid %s)", host, self._process.pid)
         try:
-            hello = self._receive("connect", connect_timeout_s)
+            kind, value = self._receive("connect", connect_timeout_s)
         except BaseException:
             self._kill()
             raise
-        if isinstance(hello, Failure):
+        if kind != "hello":
             self._kill()
-            raise self._connect_error(hello)
-        if not isinstance(hello, Hello):
-            self._kill()
-            raise RobotConnectionError(f"connect to {host}: unexpected first message {hello!r}")
-        self.controller_version = hello.controller_version
-        self._T_flange_tcp = self.tcp_offset()
+            if kind == "failure" and isinstance(value, dict):
+                raise self._connect_error(Failure(**value))
+            raise RobotConnectionError(f"connect to {host}: unexpected first message {value!r}")
+        self.controller_version = str(value)
+        try:
+            self._T_flange_tcp = self.tcp_offset()
+        except BaseException:
+            self.close()
+            raise
         log.info("connected to %s: %s", host, self.controller_version)
 
     # --- context manager ---------------------------------------------------------------------
@@ -326,11 +331,13 @@ class URRtdeArm:
 
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""
-        if self._process.poll() is None and self._dead_reason is None:
-            try:
-                self._call("close")
-            except RobotError as exc:
-                log.warning("closing the ur_rtde session on %s: %s", self.host, exc)
+        if self._process.poll() is not None or self._dead_reason is not None:
+            self._kill()
+            return
+        try:
+            self._call("close")
+        except RobotError as exc:
+            log.warning("closing the ur_rtde session on %s: %s", self.host, exc)
         self._kill(grace_s=3.0)
 
     # --- motion watch ------------------------------------------------------------------------
@@ -417,10 +424,10 @@ class URRtdeArm:
     # --- pipe --------------------------------------------------------------------------------
 
     def _sample(self, operation: str) -> Sample:
-        sample = self._call(operation)
-        if not isinstance(sample, Sample):
-            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {sample!r}")
-        return sample
+        fields = self._call(operation)
+        if not isinstance(fields, dict):
+            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {fields!r}")
+        return Sample(**fields)
 
     def _call(self, operation: str, *args: object) -> object:
         """One request to the child; its result, or a typed error. Marks the session dead on a
@@ -439,16 +446,17 @@ class URRtdeArm:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
         self._pending_reply = True
-        reply = self._receive(operation, self._call_timeout_s)
+        kind, value = self._receive(operation, self._call_timeout_s)
         self._pending_reply = False
-        if isinstance(reply, Failure):
-            raise self._call_error(reply)
-        if not (isinstance(reply, tuple) and len(reply) == 2 and reply[0] == "ok"):
-            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {reply!r}")
-        return reply[1]
+        if kind == "failure" and isinstance(value, dict):
+            raise self._call_error(Failure(**value))
+        if kind != "ok":
+            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {value!r}")
+        return value
 
-    def _receive(self, operation: str, timeout_s: float) -> object:
-        """Wait for one message from the child, bounded; a silent or dead child ends the session."""
+    def _receive(self, operation: str, timeout_s: float) -> tuple[str, object]:
+        """Wait for one ``(kind, value)`` message from the child, bounded; a silent or dead
+        child ends the session."""
         deadline = time.monotonic() + timeout_s
         while not self._conn.poll(0.05):
             if self._process.poll() is not None:
@@ -461,9 +469,13 @@ class URRtdeArm:
                 break
         else:
             try:
-                return self._conn.recv()
+                message = self._conn.recv()
             except (EOFError, OSError):
                 self._dead_reason = "the ur_rtde process closed its pipe (it probably crashed)"
+            else:
+                if isinstance(message, tuple) and len(message) == 2:
+                    return str(message[0]), message[1]
+                self._dead_reason = f"unexpected message from the ur_rtde process: {message!r}"
         self._kill()
         raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}")
 

@@ -1,15 +1,18 @@
 """The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
 
-Run as ``python -m handeye_pick.robot.worker FD HOST [--io]`` by ``URRtdeArm``: FD is this end
-of a socket pair used as a ``multiprocessing.connection.Connection``.
+Run as a script, ``python .../robot/worker.py FD HOST [--io]``, by ``URRtdeArm``: FD is this end
+of a socket pair used as a ``multiprocessing.connection.Connection``. As a script it imports
+only the standard library and ur_rtde (importing the package would load numpy, scipy and numba,
+half a second per connection), so everything it sends is plain data: dicts, lists, numbers.
 
 Why a child process: after a lost connection ur_rtde 1.6.5 reconnects by itself, loops and can
 segfault the process (ur_rtde_protocol.md section 9). Here that can only kill this child; the
 parent sees a dead pipe, reports a RobotConnectionError and stops the robot through a fresh
 dashboard connection. The child ignores SIGINT so the parent can still send stopL after Ctrl-C.
 
-Protocol: the child answers one ``Hello`` or ``Failure`` after connecting, then one reply per
-request ``(operation, args)``: ``("ok", result)`` or a ``Failure``. Poses cross the pipe as UR
+Protocol: the child answers ``("hello", controller_version)`` or ``("failure", Failure fields)``
+after connecting, then one reply per request ``(operation, args)``: ``("ok", result)`` or
+``("failure", Failure fields)``; samples travel as ``Sample`` fields. Poses cross the pipe as UR
 vectors (m, rad) in plain lists; the parent does all frame maths.
 """
 
@@ -20,21 +23,17 @@ import signal
 import sys
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from multiprocessing.connection import Connection
 from typing import Any
 
-from handeye_pick.robot.port import RobotMode, SafetyMode
-
 FRESH_SAMPLE_TIMEOUT_S = 0.5
 """How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
-
-
-@dataclass(frozen=True)
-class Hello:
-    """Sent once the interfaces are connected."""
-
-    controller_version: str
+FIRST_SAMPLE_TIMEOUT_S = 1.0
+"""How long a new receive interface may go without data before the connection fails."""
+# robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING (not imported: see above).
+SAFETY_MODES_THAT_RUN = (1, 2)
+ROBOT_MODE_RUNNING = 7
 
 
 @dataclass(frozen=True)
@@ -97,14 +96,12 @@ class _Session:
         import rtde_receive
 
         self._receive: Any = rtde_receive.RTDEReceiveInterface(host)
+        self._wait_for_data()
         safety_mode, robot_mode = (
             int(self._receive.getSafetyMode()),
             int(self._receive.getRobotMode()),
         )
-        if (
-            safety_mode not in (SafetyMode.NORMAL, SafetyMode.REDUCED)
-            or robot_mode != RobotMode.RUNNING
-        ):
+        if safety_mode not in SAFETY_MODES_THAT_RUN or robot_mode != ROBOT_MODE_RUNNING:
             # The control script could not start; ur_rtde would try for 5 s before saying so.
             raise _ConnectRefused(
                 RuntimeError("the controller cannot run a program in this state"),
@@ -128,6 +125,18 @@ class _Session:
                 "the controller did not start the RTDE data stream (receive connected: "
                 f"{self._receive.isConnected()}, control connected: {self._control.isConnected()})"
             )
+
+    def _wait_for_data(self) -> None:
+        """Until the first RTDE sample is in: after a refused start the receive interface comes
+        back without data, its getters returning zeros (ur_rtde_protocol.md section 9)."""
+        deadline = time.monotonic() + FIRST_SAMPLE_TIMEOUT_S
+        while float(self._receive.getTimestamp()) <= 0.0:
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the controller sent no RTDE data within {FIRST_SAMPLE_TIMEOUT_S} s "
+                    "(RTDE synchronization not started)"
+                )
+            time.sleep(0.01)
 
     def sample(self) -> Sample:
         r, c = self._receive, self._control
@@ -208,12 +217,12 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
         failure = Failure(
             "connect", type(exc.cause).__name__, str(exc), exc.safety_mode, exc.robot_mode
         )
-        conn.send(failure)
+        conn.send(("failure", asdict(failure)))
         os._exit(0)
     except Exception as exc:  # every failure goes back to the parent, typed there
-        conn.send(Failure("connect", type(exc).__name__, str(exc)))
+        conn.send(("failure", asdict(Failure("connect", type(exc).__name__, str(exc)))))
         os._exit(0)
-    conn.send(Hello(session.controller_version))
+    conn.send(("hello", session.controller_version))
     operations: dict[str, Callable[..., object]] = {
         "sample": session.sample,
         "fresh_sample": session.fresh_sample,
@@ -239,9 +248,10 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
         try:
             if operation != "sample":
                 session.require_link()
-            conn.send(("ok", operations[operation](*args)))
+            result = operations[operation](*args)
+            conn.send(("ok", asdict(result) if isinstance(result, Sample) else result))
         except Exception as exc:
-            conn.send(Failure(operation, type(exc).__name__, str(exc)))
+            conn.send(("failure", asdict(Failure(operation, type(exc).__name__, str(exc)))))
 
 
 def main() -> None:
@@ -250,8 +260,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    # Run the package's copy of this module, so replies unpickle as handeye_pick.robot.worker.*
-    # in the parent, not as __main__.*.
-    from handeye_pick.robot import worker
-
-    worker.main()
+    main()
