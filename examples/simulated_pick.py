@@ -85,8 +85,15 @@ def _run_pick() -> int:
 
 def main() -> int:
     print(f"$ python {' '.join(CONTROLLER[1:])}", flush=True)
+    # Its own session: a Ctrl-C at the terminal must reach the pick (which then sends stopL),
+    # not the simulated robot, which is stopped below once the pick has ended.
     controller = subprocess.Popen(
-        CONTROLLER, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        CONTROLLER,
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        start_new_session=True,
     )
     try:
         return _run_pick() if _wait_ready(controller) else 1

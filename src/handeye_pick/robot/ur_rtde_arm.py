@@ -55,6 +55,8 @@ POLL_PERIOD_S = 0.004
 REACHED_TOLERANCE_M = 0.001
 REACHED_TOLERANCE_RAD = math.radians(0.5)
 """A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
+STOP_TIMEOUT_S = 2.0
+"""stopL gets this long before the program is stopped through the dashboard instead."""
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 
@@ -313,7 +315,7 @@ class URRtdeArm:
             self._stop_by_dashboard()
             return
         try:
-            self._call("stop_l", decel_mps2)
+            self._call("stop_l", decel_mps2, timeout_s=STOP_TIMEOUT_S)
         except RobotError as exc:
             log.warning("stopL on %s failed (%s)", self.host, exc)
             if isinstance(exc, RobotConnectionError):
@@ -429,9 +431,10 @@ class URRtdeArm:
             raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {fields!r}")
         return Sample(**fields)
 
-    def _call(self, operation: str, *args: object) -> object:
+    def _call(self, operation: str, *args: object, timeout_s: float | None = None) -> object:
         """One request to the child; its result, or a typed error. Marks the session dead on a
-        lost link, a dead child or no answer within ``call_timeout_s``."""
+        lost link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``)."""
+        timeout_s = self._call_timeout_s if timeout_s is None else timeout_s
         if self._dead_reason is not None:
             raise RobotConnectionError(
                 f"{operation} on {self.host}: the session is over ({self._dead_reason}); "
@@ -439,14 +442,14 @@ class URRtdeArm:
             )
         if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first
             self._pending_reply = False
-            self._receive(operation, self._call_timeout_s)
+            self._receive(operation, timeout_s)
         try:
             self._conn.send((operation, args))
         except OSError as exc:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
         self._pending_reply = True
-        kind, value = self._receive(operation, self._call_timeout_s)
+        kind, value = self._receive(operation, timeout_s)
         self._pending_reply = False
         if kind == "failure" and isinstance(value, dict):
             raise self._call_error(Failure(**value))
