@@ -161,6 +161,27 @@ def test_progress_lines_and_summary_for_a_person(
     quiet = run_pick(config, "--xyz", "35", "-20", "384", "--dry-run", "--quiet")
     assert quiet.returncode == 0
     assert quiet.stderr == ""
+    quiet_before = subprocess.run(  # the global flags also work before the command name
+        [
+            *CLI,
+            "--quiet",
+            "pick",
+            "--config",
+            str(config),
+            "--xyz",
+            "35",
+            "-20",
+            "384",
+            "--dry-run",
+        ],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert quiet_before.returncode == 0
+    assert quiet_before.stderr == ""
     result = run_pick(
         config,
         "--detection",

@@ -6,6 +6,7 @@ is covered end to end in tests/integration against the simulated controller.
 
 from __future__ import annotations
 
+import io
 import json
 import math
 from pathlib import Path
@@ -13,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from handeye_pick import progress as progress_module
 from handeye_pick.audit import AuditLog
 from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
 from handeye_pick.config import CellConfig, load_config
@@ -329,3 +331,36 @@ def test_move_timeout_follows_the_trapezoid_profile() -> None:
     )
     turn = make_transform(rotation_from_euler([0.0, 0.0, 1.0], "xyz", "rad"), [0.0, 0.0, 0.0])
     assert move_timeout_s(start, turn, 0.25, 1.2, 0.0) == pytest.approx((4.0 + 0.25 / 1.2) * 1.5)
+
+
+# --- progress lines (progress.py) ----------------------------------------------------------------
+
+
+def test_progress_step_reports_tenths_and_duration(monkeypatch: pytest.MonkeyPatch) -> None:
+    stream = io.StringIO()
+    clock = iter([0.0, 1.0, 1.1, 2.0, 3.0, 4.5])
+    monkeypatch.setattr(progress_module.time, "monotonic", lambda: next(clock))
+    with Progress(stream).step("approach") as report:
+        report(0.45)  # t=1.0: shown
+        report(0.55)  # t=1.1: a new tenth, but too soon after the last line
+        report(0.62)  # t=2.0: shown
+        report(1.0)  # t=3.0: the end has its own line
+    assert stream.getvalue().splitlines() == [
+        "approach",
+        "approach 40%",
+        "approach 60%",
+        "approach done in 4.50 s",
+    ]
+
+
+def test_progress_step_says_when_it_failed() -> None:
+    stream = io.StringIO()
+    with pytest.raises(RobotFault), Progress(stream).step("grasp"):
+        raise RobotFault("protective stop")
+    assert stream.getvalue().splitlines()[-1].startswith("grasp failed after")
+
+
+def test_quiet_progress_prints_nothing(capsys: pytest.CaptureFixture[str]) -> None:
+    with Progress.quiet().step("retreat") as report:
+        report(0.5)
+    assert capsys.readouterr() == ("", "")
