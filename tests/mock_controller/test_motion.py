@@ -211,3 +211,24 @@ def test_movel_honours_speed_and_speed_factor() -> None:
     assert len(speeds) > 10
     assert np.max(speeds) <= 2 * 0.25 * 1.05
     assert np.max(speeds) >= 2 * 0.25 * 0.9
+
+
+def test_movel_through_an_unreachable_region_protective_stops_on_the_way() -> None:
+    # Both ends are reachable; the straight line between them passes within d4 of the base
+    # axis, where a tool-down ur5e has no IK solution.
+    start = [-0.4, -0.05, 0.4, math.pi, 0.0, 0.0]
+    target = [0.4, -0.05, 0.4, math.pi, 0.0, 0.0]
+    ctl = start_sim_controller(initial_flange_pose=start, speed_factor=4.0)
+    try:
+        c = rtde_control.RTDEControlInterface(ctl.host)
+        try:
+            assert c.isPoseWithinSafetyLimits(target)
+            assert not c.moveL(target, 0.5, 2.0)
+        finally:
+            c.disconnect()
+        snap = ctl.snapshot()
+    finally:
+        ctl.stop()
+    assert snap.safety_mode == 3
+    assert not snap.moving
+    assert -0.4 < snap.tcp_pose[0] < 0.0  # halted on the way, before the base axis
