@@ -37,6 +37,7 @@ from handeye_pick.safety import (
     MAX_GRASP_SPEED_MPS,
     MAX_SPEED_MPS,
     CheckResult,
+    PreflightRefusal,
     cell_readiness_problems,
     check_motion_command,
     preflight,
@@ -167,20 +168,25 @@ def run_pick(
     stopL); an outcome record is appended to ``audit`` in every case.
     """
     outcome: dict[str, object] = {"event": "outcome", "dry_run": dry_run, "reached": {}}
-    plan: PickPlan | None = None
     try:
         plan = plan_pick(config, calibration, detection, arm)
         if on_plan is not None:
             on_plan(plan)
         progress.say("planned: " + _describe_plan(plan))
+        # Until the plan record is written, a refusal's outcome says what was refused.
+        outcome["flange_pose"] = _ur(plan.T_base_flange)
+        outcome["targets"] = {name: _ur(target_of(plan.targets, name)) for name in STEPS}
         checks = _checked(config, plan, arm)
         progress.say(f"pre-flight: {len(checks)} checks passed")
         audit.append(_plan_record(config, calibration, detection, plan, checks, dry_run))
+        del outcome["flange_pose"], outcome["targets"]
         result = PickResult(plan, checks, dry_run)
         if not dry_run:
             _move(config, plan, arm, progress, result.reached, outcome)
     except BaseException as exc:
         outcome.update(_failure_fields(exc))
+        if isinstance(exc, PreflightRefusal):
+            outcome["checks"] = [asdict(check) for check in exc.results]
         _append_outcome_keeping_error(audit, outcome)
         raise
     outcome["status"] = "dry-run" if dry_run else "done"

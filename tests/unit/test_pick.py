@@ -275,6 +275,9 @@ def test_preflight_refusal_moves_nothing_and_records_the_checks(tmp_path: Path) 
     assert failed == {("safety_limits", t) for t in ("approach", "grasp", "retreat")}
     (outcome,) = _records(config.audit.file)
     assert outcome["status"] == "refused"
+    assert set(outcome["targets"]) == {"approach", "grasp", "retreat"}  # type: ignore[arg-type]
+    audited = {(c["name"], c["target"]) for c in outcome["checks"] if not c["passed"]}  # type: ignore[attr-defined]
+    assert audited == failed
 
 
 def test_fault_during_grasp_records_reached_steps_and_controller_state(tmp_path: Path) -> None:
