@@ -8,7 +8,8 @@ actual values are the same.
 moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal profile over the
 translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
 previous joints each cycle. moveJ interpolates joints with a trapezoidal profile over the largest
-joint travel. Stops halt the arm where it is (no deceleration phase).
+joint travel. The speed slider scales motion time as on the pendant (0 holds the arm).
+Stops halt the arm where it is (no deceleration phase).
 """
 
 from __future__ import annotations
@@ -66,6 +67,7 @@ class Arm:
         self.qd = np.zeros(6)
         self.tcp_offset = tcp_offset.astype(np.float64)
         self.speed_factor = speed_factor
+        self.speed_slider = 1.0  # pendant speed slider (0..1), set over RTDE by the IO interface
         self.instant = instant
         self.payload_kg = 0.0
         self.payload_cog_m = np.zeros(3)
@@ -155,7 +157,7 @@ class Arm:
         if self.instant:
             motion.elapsed_s += motion.duration_s / 2  # done within two cycles
         else:
-            motion.elapsed_s += dt_s * self.speed_factor
+            motion.elapsed_s += dt_s * self.speed_factor * self.speed_slider
         if motion.fraction >= 1.0:
             q_new = motion.q_target
         elif motion.distance <= 0.0:

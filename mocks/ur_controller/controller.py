@@ -145,7 +145,6 @@ class Controller:
         self._standard_do = 0
         self._configurable_do = 0
         self._tool_do = 0
-        self._speed_fraction = 1.0
         self._analog_out = [0.0, 0.0]
         self._start_s = time.monotonic()
         self._time_s = 0.0
@@ -393,7 +392,7 @@ class Controller:
                                             self._configurable_do)
             self._tool_do = _masked(values, "tool_digital_output", self._tool_do)
             if values.get("speed_slider_mask") == 1:
-                self._speed_fraction = _number(values["speed_slider_fraction"])
+                self.arm.speed_slider = min(1.0, max(0.0, _number(values["speed_slider_fraction"])))
             analog_mask = values.get("standard_analog_output_mask", 0)
             for i in (0, 1):
                 if isinstance(analog_mask, int) and analog_mask & (1 << i):
@@ -469,7 +468,7 @@ class Controller:
             safety_mode=self._safety_mode,
             actual_tool_accelerometer=(0.0, 0.0, 0.0),
             speed_scaling=1.0,
-            target_speed_fraction=self._speed_fraction,
+            target_speed_fraction=arm.speed_slider,
             actual_momentum=0.0,
             actual_main_voltage=48.0,
             actual_robot_voltage=48.0 if powered else 0.0,

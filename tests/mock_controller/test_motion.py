@@ -10,6 +10,7 @@ from collections.abc import Callable, Iterator
 import numpy as np
 import pytest
 import rtde_control
+import rtde_io
 import rtde_receive
 
 from mocks.ur_controller import SimulatedController
@@ -184,13 +185,16 @@ def test_second_control_client_kills_the_running_program_and_takes_over(
         first.stop()
 
 
-def test_movel_honours_speed_and_speed_factor() -> None:
-    """Speed measured against the controller's own timestamps: speed_factor 2 doubles it."""
-    fast = start_sim_controller(initial_q=HOME_Q, speed_factor=2.0)
+@pytest.mark.parametrize(("speed_factor", "slider"), [(2.0, 1.0), (2.0, 0.5)])
+def test_movel_honours_speed_speed_factor_and_slider(speed_factor: float, slider: float) -> None:
+    """Speed measured against the controller's own timestamps scales with both factors."""
+    fast = start_sim_controller(initial_q=HOME_Q, speed_factor=speed_factor)
     try:
         c = rtde_control.RTDEControlInterface(fast.host)
         r = rtde_receive.RTDEReceiveInterface(fast.host)
+        io = rtde_io.RTDEIOInterface(fast.host)
         try:
+            assert io.setSpeedSlider(slider)
             start = np.array(r.getActualTCPPose())
             target = start.copy()
             target[2] -= 0.25  # cruise phase at v = 0.25 m/s for most of the way
@@ -202,6 +206,7 @@ def test_movel_honours_speed_and_speed_factor() -> None:
                     samples.append((t0, z))
                 time.sleep(0.01)
         finally:
+            io.disconnect()
             r.disconnect()
             c.disconnect()
     finally:
@@ -209,8 +214,9 @@ def test_movel_honours_speed_and_speed_factor() -> None:
     times, heights = np.array(samples).T
     speeds = np.abs(np.diff(heights) / np.diff(times))
     assert len(speeds) > 10
-    assert np.max(speeds) <= 2 * 0.25 * 1.05
-    assert np.max(speeds) >= 2 * 0.25 * 0.9
+    cruise = 0.25 * speed_factor * slider
+    assert np.max(speeds) <= cruise * 1.05
+    assert np.max(speeds) >= cruise * 0.9
 
 
 def test_movel_through_an_unreachable_region_protective_stops_on_the_way() -> None:
