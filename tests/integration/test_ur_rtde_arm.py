@@ -240,3 +240,11 @@ def test_no_move_is_sent_after_a_drop_between_moves(sim_controller: SimFactory) 
 
 def motion_kinds(ctl: SimulatedController) -> list[str]:
     return [c["kind"] for c in ctl.commands if c["kind"] in MOTION_KINDS]
+
+
+def test_second_client_is_told_who_holds_the_registers(sim_controller: SimFactory) -> None:
+    ctl = sim_controller(instant=True)
+    with URRtdeArm(ctl.host) as first:
+        with pytest.raises(RobotConnectionError, match="held by another RTDE client"):
+            URRtdeArm(ctl.host)
+        assert first.status().runtime_state == RuntimeState.PLAYING  # the first one still works

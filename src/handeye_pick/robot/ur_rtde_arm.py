@@ -70,7 +70,8 @@ _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
     (
         "already in use",
         "the RTDE input registers are held by another RTDE client (a URCap such as External "
-        "Control, a ROS driver or another script): stop that client, then retry",
+        "Control, a ROS driver, another script, or an EtherNet/IP, PROFINET or MODBUS adapter "
+        "enabled on the robot): stop or disable it, then retry",
     ),
     (
         "Could not connect",
