@@ -9,7 +9,8 @@ moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal
 translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
 previous joints each cycle. moveJ interpolates joints with a trapezoidal profile over the largest
 joint travel. The speed slider scales motion time as on the pendant (0 holds the arm).
-Stops halt the arm where it is (no deceleration phase).
+stopL/stopJ/speedStop brake along the path at their deceleration; protective stops, program
+stops and a new move replacing a running one halt the arm at once.
 """
 
 from __future__ import annotations
@@ -35,11 +36,16 @@ class UnreachableError(Exception):
 
 @dataclass
 class Motion:
-    """One move in progress. `index` counts motion commands from 1 (for move:K faults)."""
+    """One move in progress. `index` counts motion commands from 1 (for move:K faults).
+
+    Path quantities are in the motion's units: m for a linear move, rad for a pure rotation or
+    a joint move (largest joint travel). A stop sets the `stop_*` fields: from `stop_at_s` on,
+    the path speed falls from `stop_speed` at `stop_decel` until the arm is still.
+    """
 
     index: int
     linear: bool
-    distance: float  # m (linear), rad (linear pure rotation, or joint: largest joint travel)
+    distance: float
     speed: float
     accel: float
     duration_s: float
@@ -47,12 +53,40 @@ class Motion:
     q_target: Vector
     T_base_tcp_start: Vector
     T_base_tcp_target: Vector
-    elapsed_s: float = 0.0
+    elapsed_s: float = 0.0  # motion time (wall time x speed factor x speed slider)
+    stop_at_s: float | None = None
+    stop_from: float = 0.0  # path fraction where the stop began
+    stop_speed: float = 0.0
+    stop_decel: float = 0.0
 
     @property
     def fraction(self) -> float:
-        """Fraction of the move's duration elapsed, 0..1."""
+        """Fraction of the move's planned duration elapsed, 0..1 (for move:K:FRACTION)."""
         return 1.0 if self.duration_s <= 0.0 else min(1.0, self.elapsed_s / self.duration_s)
+
+    def path_fraction(self) -> float:
+        """Fraction of the path covered at elapsed_s, 0..1."""
+        if self.stop_at_s is None:
+            if self.elapsed_s >= self.duration_s:
+                return 1.0
+            return kin.trapezoid_fraction(self.elapsed_s, self.distance, self.speed, self.accel)
+        t = min(self.elapsed_s - self.stop_at_s, self.stop_speed / self.stop_decel)
+        covered = self.stop_speed * t - 0.5 * self.stop_decel * t * t
+        return min(1.0, self.stop_from + covered / self.distance)
+
+    def path_speed(self) -> float:
+        """Speed along the path at elapsed_s (motion units per second of motion time)."""
+        if self.stop_at_s is None:
+            peak = min(self.speed, math.sqrt(self.distance * self.accel))
+            t = self.elapsed_s
+            return max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
+        return max(0.0, self.stop_speed - self.stop_decel * (self.elapsed_s - self.stop_at_s))
+
+    @property
+    def finished(self) -> bool:
+        if self.stop_at_s is None:
+            return self.elapsed_s >= self.duration_s
+        return self.path_speed() <= 0.0 or self.path_fraction() >= 1.0
 
 
 class Arm:
@@ -146,6 +180,24 @@ class Arm:
         self.qd = np.zeros(6)
         self.tcp_speed = np.zeros(6)
 
+    def decelerate(self, decel: float) -> Motion | None:
+        """Brake along the path at `decel` (the motion's units per s^2), as stopl/stopj do.
+
+        Returns the motion while it is still braking, None when the arm is already still.
+        """
+        motion = self.motion
+        if motion is None:
+            return None
+        speed = motion.path_speed()
+        if self.instant or decel <= 0.0 or speed <= 0.0:
+            self.halt()
+            return None
+        motion.stop_from = motion.path_fraction()
+        motion.stop_speed = speed
+        motion.stop_decel = decel
+        motion.stop_at_s = motion.elapsed_s
+        return motion
+
     def advance(self, dt_s: float) -> Motion | None:
         """Advance the motion by dt_s of wall time; returns the motion advanced (None if idle).
 
@@ -158,14 +210,8 @@ class Arm:
             motion.elapsed_s += motion.duration_s / 2  # done within two cycles
         else:
             motion.elapsed_s += dt_s * self.speed_factor * self.speed_slider
-        if motion.fraction >= 1.0:
-            q_new = motion.q_target
-        elif motion.distance <= 0.0:
-            q_new = motion.q_start
-        else:
-            s = kin.trapezoid_fraction(motion.elapsed_s, motion.distance, motion.speed,
-                                       motion.accel)
-            q_new = self._q_along(motion, s)
+        s = motion.path_fraction()
+        q_new = motion.q_target if s >= 1.0 else self._q_along(motion, s)
         T_tcp_before = self.T_base_tcp
         q_before = self.q
         self.q = q_new
@@ -173,10 +219,8 @@ class Arm:
         if dt_s > 0.0:
             self.qd = (self.q - q_before) / dt_s
             self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
-        if motion.fraction >= 1.0:
-            self.motion = None
-            self.qd = np.zeros(6)
-            self.tcp_speed = np.zeros(6)
+        if motion.finished:
+            self.halt()
         return motion
 
     def _q_along(self, motion: Motion, s: float) -> Vector:

@@ -171,12 +171,8 @@ class ControlScript:
         arm = self._arm
         if cmd in MOTION_KINDS:
             self._move(cmd)
-        elif cmd in (33, 34):
-            self._stop_move("stopL" if cmd == 33 else "stopJ")
-        elif cmd == 15:
-            self._record({"kind": "speedStop", "accel": self._in_doubles(0, 1)[0]})
-            self._stop_async_move()
-            arm.halt()
+        elif cmd in (15, 33, 34):
+            self._stop_move({15: "speedStop", 33: "stopL", 34: "stopJ"}[cmd])
         elif cmd == 17:
             mass, cog = self._in_doubles(0, 1)[0], self._in_doubles(1, 3)
             arm.payload_kg = float(mass)
@@ -261,21 +257,32 @@ class ControlScript:
             self._blocking_motion = motion
 
     def _stop_async_move(self) -> None:
+        """A new move kills the running async move: the arm halts, the word says finished."""
         if self._async_motion is not None:
             self._async_motion = None
             self._arm.halt()
             self._write_async_word(-1)
 
     def _stop_move(self, kind: str) -> None:
+        """stopL/stopJ (sync or async) and speedStop: brake at D0 until the arm is still."""
         decel = float(self._in_doubles(0, 1)[0])
-        is_async = self._in_int(1) == 1
-        self._record({"kind": kind, "accel": decel, "async": is_async})
-        self._stop_async_move()
-        self._arm.halt()
-        if is_async:
-            # The stop thread starts and, the arm being halted at once, finishes.
-            self._write_async_word(0)
+        is_async = kind != "speedStop" and self._in_int(1) == 1
+        entry: dict[str, Any] = {"kind": kind, "accel": decel}
+        if kind != "speedStop":
+            entry["async"] = is_async
+        self._record(entry)
+        if self._async_motion is not None:  # the move thread is killed; the arm brakes below
+            self._async_motion = None
             self._write_async_word(-1)
+        braking = self._arm.decelerate(decel)
+        if is_async:
+            self._write_async_word(0)  # the stop thread starts
+            if braking is None:
+                self._write_async_word(-1)
+            else:
+                self._async_motion = braking
+        elif braking is not None:
+            self._blocking_motion = braking  # stopl/stopj block until the arm is still
 
 
 def _plain(value: Any) -> Any:

@@ -238,3 +238,23 @@ def test_movel_through_an_unreachable_region_protective_stops_on_the_way() -> No
     assert snap.safety_mode == 3
     assert not snap.moving
     assert -0.4 < snap.tcp_pose[0] < 0.0  # halted on the way, before the base axis
+
+
+def test_stopl_brakes_at_its_deceleration(
+    ctl: SimulatedController, control: rtde_control.RTDEControlInterface,
+    receive: rtde_receive.RTDEReceiveInterface, running: None,
+) -> None:
+    start = np.array(receive.getActualTCPPose())
+    target = start.copy()
+    target[2] -= 0.3
+    assert control.moveL(target.tolist(), 0.25, 1.2, True)
+    wait_for(lambda: receive.getActualTCPPose()[2] < start[2] - 0.1)  # cruising at 0.25 m/s
+    z_at_stop = ctl.snapshot().tcp_pose[2]
+    control.stopL(0.5, True)  # async: returns while the arm brakes over 0.25^2 / (2 * 0.5) m
+    assert control.getAsyncOperationProgress() >= 0  # the stop runs
+    wait_for(lambda: control.getAsyncOperationProgress() < 0)
+    travel = z_at_stop - ctl.snapshot().tcp_pose[2]
+    assert 0.0625 * 0.8 < travel < 0.0625 * 1.1
+    assert not ctl.snapshot().moving
+    last = ctl.commands[-1]
+    assert (last["kind"], last["accel"], last["async"]) == ("stopL", 0.5, True)
