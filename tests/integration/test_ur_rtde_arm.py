@@ -218,6 +218,7 @@ def test_protective_stop_refuses_a_move(sim_controller: SimFactory) -> None:
     with URRtdeArm(ctl.host) as arm:
         target = _lowered(arm.tcp_pose(), 0.05)
         ctl.inject("protective-stop")
+        assert _eventually(lambda: arm.status().protective_stopped)  # RTDE shows it a cycle later
         with pytest.raises(RobotFault) as caught:
             arm.move_linear(target, 0.25, 1.2, timeout_s=5.0)
     assert caught.value.safety_mode == SafetyMode.PROTECTIVE_STOP
