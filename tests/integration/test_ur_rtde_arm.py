@@ -249,3 +249,14 @@ def test_second_client_is_told_who_holds_the_registers(sim_controller: SimFactor
         with pytest.raises(RobotConnectionError, match="held by another RTDE client"):
             URRtdeArm(ctl.host)
         assert first.status().runtime_state == RuntimeState.PLAYING  # the first one still works
+
+
+def test_a_crashed_ur_rtde_process_is_a_connection_error(sim_controller: SimFactory) -> None:
+    # What a segfault in ur_rtde's reconnect loop looks like from here.
+    ctl = sim_controller(instant=True)
+    with URRtdeArm(ctl.host) as arm:
+        arm._process.kill()  # the child that holds ur_rtde
+        with pytest.raises(RobotConnectionError, match=r"died|closed its pipe"):
+            arm.tcp_pose()
+        with pytest.raises(RobotConnectionError, match="session is over"):
+            arm.status()
