@@ -1,0 +1,206 @@
+"""Render a pick scene to a PNG: every frame of the chain where the maths puts it.
+
+A wrong hand-eye direction, a wrong unit or a wrong TCP is obvious in a picture and invisible in a
+column of numbers. The picture shows, in the robot base frame: base, flange, current TCP, camera,
+object and the approach / grasp / retreat TCP targets as labelled axis triads (x red, y green,
+z blue), the straight-line TCP path through the targets, the workspace box and, when given, a
+subsample of the point cloud. Three views (perspective, top, side) with equal axis scales in mm.
+
+Rendering is headless: a bare matplotlib ``Figure`` drawn by the Agg canvas, no pyplot state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+from mpl_toolkits.mplot3d.axes3d import Axes3D
+from numpy.typing import NDArray
+
+from handeye_pick.errors import InputError
+from handeye_pick.geometry import Transform
+
+FIGURE_SIZE_IN = (18.0, 7.0)
+FIGURE_DPI = 100
+FIGURE_SIZE_PX = (1800, 700)
+"""Width and height of every rendered PNG in pixels (FIGURE_SIZE_IN times FIGURE_DPI)."""
+
+MAX_CLOUD_POINTS = 4000
+"""Cloud points drawn at most: enough to see the surface, few enough to render in a second."""
+
+_AXIS_COLOURS = ("tab:red", "tab:green", "tab:blue")
+_TRIAD_FRACTION = 0.06  # triad length as a fraction of the scene's largest extent
+_M_TO_MM = 1000.0
+_SAME_PLACE_MM = 5.0  # frame origins closer than this on a view share one label
+
+
+@dataclass(frozen=True, eq=False)
+class Scene:
+    """Everything one picture shows. Poses are float64 4x4 in the robot base frame, metres.
+
+    ``tcp_path`` lists the TCP targets (``T_base_tcp``) in the order the arm visits them, e.g.
+    ``(("approach", T), ("grasp", T), ("retreat", T))``; the path is drawn from ``T_base_tcp``
+    (the TCP now) through them in straight lines, as moveL travels.
+    """
+
+    mode: str  # hand-eye mode, for the caption
+    calibration_file: Path  # for the caption
+    T_base_flange: Transform
+    T_base_tcp: Transform
+    T_base_cam: Transform
+    T_base_obj: Transform
+    tcp_path: tuple[tuple[str, Transform], ...]
+    workspace_min_m: tuple[float, float, float]
+    workspace_max_m: tuple[float, float, float]
+    cloud_base_m: NDArray[np.float64] | None = None  # (N, 3) points in base, metres
+
+
+def scene_frames(scene: Scene) -> list[tuple[str, Transform]]:
+    """The labelled frames the renderer draws, in drawing order (``T_base_<label>``, metres)."""
+    frames: list[tuple[str, Transform]] = [
+        ("base", np.eye(4)),
+        ("flange", scene.T_base_flange),
+        ("tcp", scene.T_base_tcp),
+        ("camera", scene.T_base_cam),
+        ("object", scene.T_base_obj),
+    ]
+    frames.extend(scene.tcp_path)
+    return frames
+
+
+def cloud_to_base_m(
+    xyz_mm: NDArray[np.floating], T_base_cam: Transform, max_points: int = MAX_CLOUD_POINTS
+) -> NDArray[np.float64]:
+    """A subsample of a camera-frame cloud (mm, any shape (..., 3), NaN = no data) in the base
+    frame, metres, shape (N, 3) with N <= ``max_points``; points without data are dropped.
+
+    The subsample takes every k-th valid point, so the same cloud always gives the same picture.
+    """
+    points = np.asarray(xyz_mm).reshape(-1, 3)
+    valid = points[np.all(np.isfinite(points), axis=1)]
+    step = max(1, -(-len(valid) // max_points))  # ceil division
+    sample_m = valid[::step].astype(np.float64) / _M_TO_MM
+    out: NDArray[np.float64] = sample_m @ T_base_cam[:3, :3].T + T_base_cam[:3, 3]
+    return out
+
+
+def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
+    """Write the scene as a PNG of ``FIGURE_SIZE_PX`` to ``path``.
+
+    Returns the origin of every labelled frame as drawn (base frame, mm), keyed by label, so a
+    caller or a test can see where the picture puts each frame. Raises InputError when the PNG
+    cannot be written.
+    """
+    frames = scene_frames(scene)
+    origins_mm = {label: T[:3, 3] * _M_TO_MM for label, T in frames}
+    path_mm = np.array(
+        [scene.T_base_tcp[:3, 3]] + [T[:3, 3] for _, T in scene.tcp_path]
+    ) * _M_TO_MM
+    box_min_mm = np.array(scene.workspace_min_m) * _M_TO_MM
+    box_max_mm = np.array(scene.workspace_max_m) * _M_TO_MM
+    cloud_mm = None if scene.cloud_base_m is None else scene.cloud_base_m * _M_TO_MM
+
+    # One cube around everything so all three views share the same scale.
+    extent_points = [*origins_mm.values(), box_min_mm, box_max_mm]
+    if cloud_mm is not None and len(cloud_mm) > 0:
+        extent_points.extend([cloud_mm.min(axis=0), cloud_mm.max(axis=0)])
+    lo = np.min(extent_points, axis=0)
+    hi = np.max(extent_points, axis=0)
+    centre = (lo + hi) / 2.0
+    half = max(float(np.max(hi - lo)) / 2.0 * 1.1, 100.0)
+    triad_mm = 2.0 * half * _TRIAD_FRACTION
+
+    fig = Figure(figsize=FIGURE_SIZE_IN, dpi=FIGURE_DPI, layout="constrained")
+    FigureCanvasAgg(fig)
+    persp = fig.add_subplot(1, 3, 1, projection="3d")
+    persp.set_proj_type("persp")
+    persp.set_box_aspect((1.0, 1.0, 1.0))
+    persp.set_zlabel("z (mm)")
+    persp.set_zlim(centre[2] - half, centre[2] + half)
+    # Top view looks down base z (x right, y up); side view looks along base y (x right, z up).
+    views: list[tuple[Axes, tuple[int, ...], str]] = [
+        (persp, (0, 1, 2), "perspective"),
+        (fig.add_subplot(1, 3, 2), (0, 1), "top (x, y)"),
+        (fig.add_subplot(1, 3, 3), (0, 2), "side (x, z)"),
+    ]
+    for ax, dims, title in views:
+        ax.set_title(title)
+        ax.set_xlabel(f"{'xyz'[dims[0]]} (mm)")
+        ax.set_ylabel(f"{'xyz'[dims[1]]} (mm)")
+        ax.set_xlim(centre[dims[0]] - half, centre[dims[0]] + half)
+        ax.set_ylim(centre[dims[1]] - half, centre[dims[1]] + half)
+        if len(dims) == 2:
+            ax.set_aspect("equal")
+            ax.grid(True, linewidth=0.3)
+        d = list(dims)
+        for a, b in _box_edges(box_min_mm, box_max_mm):
+            ax.plot(*np.stack([a[d], b[d]]).T, color="tab:orange", linewidth=0.8)
+        if cloud_mm is not None:
+            _scatter(ax, cloud_mm, d)
+        ax.plot(*path_mm[:, d].T, "k--", linewidth=1)
+        for _, T in frames:
+            origin = T[:3, 3] * _M_TO_MM
+            for axis, colour in enumerate(_AXIS_COLOURS):
+                tip = origin + T[:3, axis] * triad_mm
+                ax.plot(*np.stack([origin[d], tip[d]]).T, color=colour, linewidth=2)
+        for label, origin in _merged_labels(origins_mm, d):
+            _label(ax, origin, d, label)
+
+    fig.suptitle(
+        f"{scene.mode}  |  calibration: {scene.calibration_file}  |  robot base frame, mm; "
+        "axes x red, y green, z blue; dashed: TCP path",
+        fontsize=10,
+    )
+    try:
+        fig.savefig(path, format="png")
+    except OSError as exc:
+        raise InputError(f"writing the scene picture {path}: {exc.strerror or exc}") from None
+    return origins_mm
+
+
+def _merged_labels(
+    origins_mm: dict[str, NDArray[np.float64]], dims: list[int]
+) -> list[tuple[str, NDArray[np.float64]]]:
+    """One label per place on a view: frames whose origins coincide there (object and grasp,
+    approach and retreat; flange and TCP seen from above) share a label such as "object, grasp"
+    instead of printing over each other."""
+    merged: list[tuple[list[str], NDArray[np.float64]]] = []
+    for label, origin in origins_mm.items():
+        for names, where in merged:
+            if np.linalg.norm(where[dims] - origin[dims]) < _SAME_PLACE_MM:
+                names.append(label)
+                break
+        else:
+            merged.append(([label], origin))
+    return [(", ".join(names), where) for names, where in merged]
+
+
+def _scatter(ax: Axes, points_mm: NDArray[np.float64], dims: list[int]) -> None:
+    """Cloud points on one view, small and grey so the frames stay readable."""
+    if isinstance(ax, Axes3D):
+        ax.scatter(points_mm[:, 0], points_mm[:, 1], points_mm[:, 2], s=1, c="0.6", alpha=0.5)
+    else:
+        ax.scatter(points_mm[:, dims[0]], points_mm[:, dims[1]], s=1, c="0.6", alpha=0.5)
+
+
+def _label(ax: Axes, origin_mm: NDArray[np.float64], dims: list[int], label: str) -> None:
+    """A frame's name next to its origin on one view."""
+    if isinstance(ax, Axes3D):
+        ax.text(origin_mm[0], origin_mm[1], origin_mm[2], f" {label}", fontsize=8)
+    else:
+        ax.text(origin_mm[dims[0]], origin_mm[dims[1]], f" {label}", fontsize=8)
+
+
+def _box_edges(
+    lo: NDArray[np.float64], hi: NDArray[np.float64]
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The 12 edges of an axis-aligned box as pairs of corner points."""
+    corners = [np.array([x, y, z]) for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
+               for z in (lo[2], hi[2])]
+    # Two corners share an edge when they differ in exactly one coordinate.
+    return [(a, b) for k, a in enumerate(corners) for b in corners[k + 1:]
+            if np.count_nonzero(a != b) == 1]
