@@ -7,6 +7,8 @@ itself and check it survives.
 
 from __future__ import annotations
 
+import subprocess
+import sys
 import time
 from collections.abc import Callable
 from typing import Any
@@ -260,3 +262,15 @@ def test_a_crashed_ur_rtde_process_is_a_connection_error(sim_controller: SimFact
             arm.tcp_pose()
         with pytest.raises(RobotConnectionError, match="session is over"):
             arm.status()
+
+
+def test_timeout_stretches_with_the_speed_slider(sim_controller: SimFactory) -> None:
+    ctl = sim_controller()
+    # The pendant's slider, set the way a person's tablet or PLC would: another RTDE client.
+    slider = "import rtde_io, sys; io = rtde_io.RTDEIOInterface(sys.argv[1]); "
+    slider += "sys.exit(0 if io.setSpeedSlider(0.25) else 1)"
+    subprocess.run([sys.executable, "-c", slider, ctl.host], check=True, timeout=30)
+    with URRtdeArm(ctl.host) as arm:
+        target = _lowered(arm.tcp_pose(), 0.10)  # 0.61 s at full speed, 2.4 s at 25 %
+        reached = arm.move_linear(target, 0.25, 1.2, timeout_s=1.2)
+    np.testing.assert_allclose(reached, target, atol=1e-6)

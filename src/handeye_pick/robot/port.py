@@ -126,7 +126,10 @@ class RobotArm(Protocol):
         """moveL to ``T_base_tcp``; blocks until it is reached and returns the reached
         ``T_base_tcp``. Runs asynchronously under the hood while watching safety status and the
         link; raises RobotFault (stopped, refused, timed out: the arm was told to stop) or
-        RobotConnectionError. Interruptible by KeyboardInterrupt, which propagates after a stopL."""
+        RobotConnectionError. Interruptible by KeyboardInterrupt, which propagates after a stopL.
+
+        ``timeout_s`` is the longest the move may take at full speed; the pendant's speed slider
+        stretches it in wall-clock time."""
         ...
 
     def stop_linear(self, decel_mps2: float) -> None:

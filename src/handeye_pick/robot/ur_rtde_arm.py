@@ -55,6 +55,8 @@ POLL_PERIOD_S = 0.004
 REACHED_TOLERANCE_M = 0.001
 REACHED_TOLERANCE_RAD = math.radians(0.5)
 """A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
+MIN_SPEED_SCALING = 0.05
+"""A move's timeout stretches with the speed slider, down to this fraction (20 times longer)."""
 STOP_TIMEOUT_S = 2.0
 """stopL gets this long before the program is stopped through the dashboard instead."""
 STALE_LINK_S = 0.5
@@ -281,9 +283,11 @@ class URRtdeArm:
         """Async moveL to ``T_base_tcp`` watched until done; returns the reached ``T_base_tcp``.
 
         Watched every ``POLL_PERIOD_S``: protective/emergency stop, safety mode, runtime state,
-        robot mode, the link, and ``timeout_s``. A fault sends stopL (where the link still
-        works) and raises RobotFault; a lost link stops the program through a fresh dashboard
-        connection and raises RobotConnectionError; Ctrl-C sends stopL and propagates.
+        robot mode, the link, and ``timeout_s``, counted in time at full speed (a speed slider
+        at 50 % gives the move twice as long in wall-clock time). A fault sends stopL (where
+        the link still works) and raises RobotFault; a lost link stops the program through a
+        fresh dashboard connection and raises RobotConnectionError; Ctrl-C sends stopL and
+        propagates.
         """
         target = _to_ur_list(T_base_tcp)
         try:
@@ -353,12 +357,14 @@ class URRtdeArm:
         on_progress: ProgressCallback | None,
     ) -> None:
         T_start = ur_pose_to_matrix(start.tcp_pose)
-        deadline = time.monotonic() + timeout_s
+        motion_time_s = 0.0  # time at full speed: runs slower while the speed slider is down
         last_timestamp = start.timestamp_s
-        last_new_sample = time.monotonic()
+        last_new_sample = last_now = time.monotonic()
         while True:
             sample = self._sample("sample")
             now = time.monotonic()
+            motion_time_s += (now - last_now) * max(sample.speed_scaling, MIN_SPEED_SCALING)
+            last_now = now
             self._check_motion_sample(sample)
             if sample.timestamp_s != last_timestamp:
                 last_timestamp, last_new_sample = sample.timestamp_s, now
@@ -375,8 +381,10 @@ class URRtdeArm:
                 on_progress(1.0 if done else motion_fraction(T_start, T_now, T_target))
             if done:
                 return
-            if now > deadline:
-                raise self._fault(f"moveL did not finish within {timeout_s:.1f} s", sample)
+            if motion_time_s > timeout_s:
+                raise self._fault(
+                    f"moveL did not finish within {timeout_s:.1f} s (at full speed)", sample
+                )
             time.sleep(POLL_PERIOD_S)
 
     def _check_motion_sample(self, sample: Sample) -> None:

@@ -83,6 +83,7 @@ class Sample:
     async_operation_id: int
     receive_connected: bool
     control_connected: bool
+    speed_scaling: float  # speed slider x controller speed scaling, 0..1
 
 
 class _Session:
@@ -153,6 +154,7 @@ class _Session:
             async_operation_id=int(async_status.operationId()),
             receive_connected=bool(r.isConnected()),
             control_connected=bool(c.isConnected()),
+            speed_scaling=float(r.getSpeedScalingCombined()),
         )
 
     def fresh_sample(self) -> Sample:
