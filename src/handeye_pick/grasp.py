@@ -62,7 +62,7 @@ def tool_down_keeping_yaw(R_base_tcp: NDArray[np.float64]) -> NDArray[np.float64
     return R
 
 
-def _backed_off(T_base_tcp: Transform, distance_m: float) -> Transform:
+def backed_off(T_base_tcp: Transform, distance_m: float) -> Transform:
     """``T_base_tcp`` moved ``distance_m`` back along its own tool z axis (rotation unchanged)."""
     out: Transform = T_base_tcp.copy()
     out[:3, 3] -= distance_m * T_base_tcp[:3, 2]
@@ -86,7 +86,7 @@ def plan_targets(
     else:
         T_grasp = T_base_obj @ grasp.T_obj_tcp
     return PickTargets(
-        approach=_backed_off(T_grasp, grasp.approach_mm / 1000.0),
+        approach=backed_off(T_grasp, grasp.approach_mm / 1000.0),
         grasp=T_grasp,
-        retreat=_backed_off(T_grasp, grasp.retreat_mm / 1000.0),
+        retreat=backed_off(T_grasp, grasp.retreat_mm / 1000.0),
     )

@@ -15,7 +15,7 @@ import logging
 import math
 import time
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
@@ -30,7 +30,7 @@ from handeye_pick.geometry import (
     matrix_to_ur_pose,
     rotation_angle_between,
 )
-from handeye_pick.grasp import PickTargets, plan_targets
+from handeye_pick.grasp import PickTargets, backed_off, plan_targets
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
@@ -121,13 +121,17 @@ def move_timeout_s(
 
 
 def plan_pick(
-    config: CellConfig, calibration: HandEyeCalibration, detection: Detection, arm: RobotArm
+    config: CellConfig,
+    calibration: HandEyeCalibration,
+    detection: Detection,
+    arm: RobotArm,
+    *,
+    standoff_m: float = 0.0,
 ) -> PickPlan:
     """Refuse an unready cell, read the robot, and chain the detection into TCP targets.
 
-    ``T_base_obj = T_base_cam @ T_cam_obj``; eye-in-hand ``T_base_cam = T_base_flange @
-    T_flange_cam`` with the flange read now. Raises ``SafetyRefusal`` listing every readiness
-    problem (remote control, stops, TCP offset differing from the config).
+    Raises ``SafetyRefusal`` listing every readiness problem (remote control, stops, TCP offset
+    differing from the config). The chain itself is ``chain_plan`` with the flange read now.
     """
     robot = config.robot
     T_flange_tcp = arm.tcp_offset()
@@ -140,12 +144,34 @@ def plan_pick(
     )
     if problems:
         raise SafetyRefusal(f"cell on {robot.host} is not ready: " + "; ".join(problems))
-    T_base_flange = arm.flange_pose()
+    return chain_plan(
+        config, calibration, detection, arm.flange_pose(), T_flange_tcp, standoff_m=standoff_m
+    )
+
+
+def chain_plan(
+    config: CellConfig,
+    calibration: HandEyeCalibration,
+    detection: Detection,
+    T_base_flange: Transform,
+    T_flange_tcp: Transform,
+    *,
+    standoff_m: float = 0.0,
+) -> PickPlan:
+    """The hand-eye chain and the TCP targets for a given flange pose; no robot I/O.
+
+    ``T_base_obj = T_base_cam @ T_cam_obj``; eye-in-hand ``T_base_cam = T_base_flange @
+    T_flange_cam``. ``standoff_m`` holds the grasp target that far back along its tool z (the
+    touch test stops short of the point); approach and retreat stay where the grasp config puts
+    them.
+    """
     T_base_cam = calibration.T_base_cam(T_base_flange)
     T_base_obj = compose(T_base_cam, detection.T_cam_obj)
     targets = plan_targets(
         T_base_obj, compose(T_base_flange, T_flange_tcp), config.grasp, detection.position_only
     )
+    if standoff_m > 0.0:
+        targets = replace(targets, grasp=backed_off(targets.grasp, standoff_m))
     return PickPlan(T_flange_tcp, T_base_flange, T_base_cam, T_base_obj, targets)
 
 
@@ -159,17 +185,21 @@ def run_pick(
     dry_run: bool,
     progress: Progress,
     on_plan: Callable[[PickPlan], None] | None = None,
+    before_move: Callable[[str], None] | None = None,
+    standoff_m: float = 0.0,
 ) -> PickResult:
     """Plan, check, audit and (unless ``dry_run``) run approach, grasp, retreat.
 
     ``on_plan`` is called with the plan as soon as it exists (before the pre-flight checks), so a
-    caller can report it even when the pick is refused or fails later. Raises ``SafetyRefusal``
+    caller can report it even when the pick is refused or fails later. ``before_move`` is called
+    with the step name right before each move (an operator's confirmation); ``standoff_m`` as in
+    ``chain_plan``. Raises ``SafetyRefusal``
     (nothing moved), ``RobotError`` (fault during the pick) or ``KeyboardInterrupt`` (after
     stopL); an outcome record is appended to ``audit`` in every case.
     """
     outcome: dict[str, object] = {"event": "outcome", "dry_run": dry_run, "reached": {}}
     try:
-        plan = plan_pick(config, calibration, detection, arm)
+        plan = plan_pick(config, calibration, detection, arm, standoff_m=standoff_m)
         if on_plan is not None:
             on_plan(plan)
         progress.say("planned: " + _describe_plan(plan))
@@ -182,7 +212,7 @@ def run_pick(
         del outcome["flange_pose"], outcome["targets"]
         result = PickResult(plan, checks, dry_run)
         if not dry_run:
-            _move(config, plan, arm, progress, result.reached, outcome)
+            _move(config, plan, arm, progress, result.reached, outcome, before_move)
     except BaseException as exc:
         outcome.update(_failure_fields(exc))
         if isinstance(exc, PreflightRefusal):
@@ -207,6 +237,7 @@ def _move(
     progress: Progress,
     reached: dict[str, Transform],
     outcome: dict[str, object],
+    before_move: Callable[[str], None] | None,
 ) -> None:
     """The three moves and the gripper; ``reached`` and ``outcome`` are filled as they happen."""
     motion, gripper = config.motion, config.robot.gripper
@@ -228,6 +259,8 @@ def _move(
         )
         check_motion_command(speed, motion.accel_mps2, max_speed_mps=cap)
         timeout = move_timeout_s(T_from, T_to, speed, motion.accel_mps2, motion.timeout_margin_s)
+        if before_move is not None:
+            before_move(name)
         with progress.step(name) as report:
             reached[name] = arm.move_linear(T_to, speed, motion.accel_mps2, timeout, report)
         reached_ur[name] = _ur(reached[name])
