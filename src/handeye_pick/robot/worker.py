@@ -56,7 +56,8 @@ class LinkLost(Exception):
 
 
 class _ConnectRefused(Exception):
-    """The control interface failed after the receive interface connected."""
+    """The controller cannot run ur_rtde's control program; the modes read on the receive
+    interface say why (protective stop, emergency stop, arm off)."""
 
     def __init__(self, cause: Exception, safety_mode: int, robot_mode: int) -> None:
         super().__init__(str(cause))
