@@ -97,9 +97,7 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
     """
     frames = scene_frames(scene)
     origins_mm = {label: T[:3, 3] * _M_TO_MM for label, T in frames}
-    path_mm = np.array(
-        [scene.T_base_tcp[:3, 3]] + [T[:3, 3] for _, T in scene.tcp_path]
-    ) * _M_TO_MM
+    path_mm = np.array([scene.T_base_tcp[:3, 3]] + [T[:3, 3] for _, T in scene.tcp_path]) * _M_TO_MM
     box_min_mm = np.array(scene.workspace_min_m) * _M_TO_MM
     box_max_mm = np.array(scene.workspace_max_m) * _M_TO_MM
     cloud_mm = None if scene.cloud_base_m is None else scene.cloud_base_m * _M_TO_MM
@@ -199,8 +197,13 @@ def _box_edges(
     lo: NDArray[np.float64], hi: NDArray[np.float64]
 ) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
     """The 12 edges of an axis-aligned box as pairs of corner points."""
-    corners = [np.array([x, y, z]) for x in (lo[0], hi[0]) for y in (lo[1], hi[1])
-               for z in (lo[2], hi[2])]
+    corners = [
+        np.array([x, y, z]) for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])
+    ]
     # Two corners share an edge when they differ in exactly one coordinate.
-    return [(a, b) for k, a in enumerate(corners) for b in corners[k + 1:]
-            if np.count_nonzero(a != b) == 1]
+    return [
+        (a, b)
+        for k, a in enumerate(corners)
+        for b in corners[k + 1 :]
+        if np.count_nonzero(a != b) == 1
+    ]

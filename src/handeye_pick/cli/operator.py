@@ -1,0 +1,428 @@
+"""Operator tools around the pick: ``plan --plot``, ``status`` and ``touch-test``.
+
+- ``plan``: the pick's planning (same chain, same targets) drawn to a PNG; moves nothing. The
+  flange comes from ``--robot-pose`` / ``--robot-pose-ur`` or, without them, from the live robot.
+- ``status``: one screen that says whether the cell is ready to pick (exit 0) or not (exit 3,
+  with every reason).
+- ``touch-test``: a camera point driven to a stand-off above it with the pick's own sequence
+  (readiness, pre-flight checks, audit, slow descent), then back up, so the operator sees
+  whether the tool tip lands on the point.
+
+Robot poses are printed as UR vectors (m, rad); points in the base frame in mm.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from handeye_pick.audit import AuditLog
+from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
+from handeye_pick.cli import EXIT_REFUSED
+from handeye_pick.cli.common import (
+    add_camera_point_args,
+    add_robot_pose_args,
+    camera_point_mm_from_args,
+    robot_pose_from_args,
+)
+from handeye_pick.cli.pick import detection_from_args
+from handeye_pick.cloudio import read_cloud
+from handeye_pick.config import CellConfig, load_config
+from handeye_pick.detection import detection_from_point_mm
+from handeye_pick.errors import InputError, SafetyRefusal
+from handeye_pick.geometry import Transform, compose, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.pick import STEPS, PickPlan, chain_plan, run_pick, target_of
+from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
+from handeye_pick.progress import Progress
+from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode
+from handeye_pick.robot.ur_rtde_arm import URRtdeArm
+from handeye_pick.safety import cell_readiness_problems, workspace_problem
+
+DEFAULT_STANDOFF_MM = 10.0
+
+
+def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    """Add ``plan``, ``status`` and ``touch-test`` to the top-level parser."""
+    plan = sub.add_parser(
+        "plan",
+        help="plan a pick and draw every frame to a PNG; moves nothing",
+        description="The pick's planning (hand-eye chain, approach/grasp/retreat targets) "
+        "drawn in the robot base frame: base, flange, TCP, camera, object, targets, TCP path, "
+        "workspace box and the cloud when given. The flange pose comes from --robot-pose / "
+        "--robot-pose-ur, or from the live robot in the config when neither is given.",
+    )
+    _add_config_arg(plan)
+    plan.add_argument(
+        "--detection",
+        type=Path,
+        metavar="FILE",
+        help="detection file: position_mm and an optional orientation, camera frame",
+    )
+    add_camera_point_args(plan, required=False)
+    add_robot_pose_args(plan)
+    plan.add_argument(
+        "--plot", required=True, type=Path, metavar="FILE.png", help="PNG file to write"
+    )
+    _add_json_arg(plan)
+    plan.set_defaults(run=run_plan)
+
+    status = sub.add_parser(
+        "status",
+        help="is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons)",
+        description="Connect and show controller version, robot and safety mode, runtime "
+        "state, remote control, the active TCP offset against the config, the flange pose, "
+        "T_base_cam and whether the workspace box holds the current TCP.",
+    )
+    _add_config_arg(status)
+    _add_json_arg(status)
+    status.set_defaults(run=run_status)
+
+    touch = sub.add_parser(
+        "touch-test",
+        help="move the TCP slowly to a stand-off above a point the camera sees, then back",
+        description="Check the calibration by touch: a camera point is chained into the base "
+        "frame and the TCP goes to the approach point above it, descends at the grasp speed to "
+        "the stand-off, and goes back up, with the pick's readiness and pre-flight checks and "
+        "audit records. No gripper output is switched.",
+    )
+    _add_config_arg(touch)
+    add_camera_point_args(touch, required=True)
+    touch.add_argument(
+        "--standoff-mm",
+        type=float,
+        default=DEFAULT_STANDOFF_MM,
+        metavar="MM",
+        help="stop this far above the point along the tool z axis "
+        f"(default {DEFAULT_STANDOFF_MM:g})",
+    )
+    touch.add_argument(
+        "--confirm",
+        action="store_true",
+        help="wait for Enter at the approach point before descending",
+    )
+    _add_json_arg(touch)
+    touch.set_defaults(run=run_touch_test)
+
+
+def _add_config_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--config", required=True, type=Path, metavar="FILE", help="cell configuration (YAML)"
+    )
+
+
+def _add_json_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object on stdout; no progress lines"
+    )
+
+
+def _progress(args: argparse.Namespace) -> Progress:
+    return Progress(None if args.quiet or args.json else sys.stderr)
+
+
+def _calibration(config: CellConfig) -> HandEyeCalibration:
+    hand_eye = config.hand_eye
+    return load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
+
+
+def _connect(config: CellConfig, progress: Progress, *, with_io: bool = False) -> URRtdeArm:
+    with progress.step(f"connecting to {config.robot.host}"):
+        return URRtdeArm(
+            config.robot.host, with_io=with_io, stop_decel_mps2=config.motion.stop_decel_mps2
+        )
+
+
+# --- plan --plot --------------------------------------------------------------------------------
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    """Plan like a pick and write the PNG; exit 0. Nothing is sent to the robot but reads."""
+    config = load_config(args.config)
+    detection = detection_from_args(args)
+    calibration = _calibration(config)
+    T_base_flange = robot_pose_from_args(args)
+    if T_base_flange is None:
+        progress = _progress(args)
+        with _connect(config, progress) as arm:
+            T_flange_tcp = arm.tcp_offset()
+            T_base_flange = arm.flange_pose()
+        flange_source = f"live robot {config.robot.host}"
+    else:
+        # Offline: the TCP the config expects on the pendant.
+        T_flange_tcp = config.robot.T_flange_tcp
+        flange_source = "--robot-pose" if args.robot_pose is not None else "--robot-pose-ur"
+    plan = chain_plan(config, calibration, detection, T_base_flange, T_flange_tcp)
+    cloud_base_m = None
+    if args.cloud is not None:
+        cloud_base_m = cloud_to_base_m(read_cloud(args.cloud).xyz, plan.T_base_cam)
+    inverted = ", inverted on load" if calibration.inverted else ""
+    scene = Scene(
+        mode=f"plan: {calibration.mode.value}{inverted}, flange from {flange_source}",
+        calibration_file=calibration.path,
+        T_base_flange=plan.T_base_flange,
+        T_base_tcp=compose(plan.T_base_flange, plan.T_flange_tcp),
+        T_base_cam=plan.T_base_cam,
+        T_base_obj=plan.T_base_obj,
+        tcp_path=tuple((name, target_of(plan.targets, name)) for name in STEPS),
+        workspace_min_m=_mm_to_m(config.workspace.min_mm),
+        workspace_max_m=_mm_to_m(config.workspace.max_mm),
+        cloud_base_m=cloud_base_m,
+    )
+    render_scene(scene, args.plot)
+    # Only the pure checks: the controller's own (safety limits, IK) need a pick or a dry run.
+    outside = {
+        name: problem
+        for name in STEPS
+        if (problem := workspace_problem(target_of(plan.targets, name), config.workspace))
+    }
+    if args.json:
+        _print_json(
+            {
+                "plot": str(args.plot),
+                "flange_source": flange_source,
+                **_plan_fields(plan),
+                "outside_workspace": outside,
+            }
+        )
+    else:
+        lines = [f"plan drawn to {args.plot} (flange from {flange_source}; nothing moved)"]
+        lines += _plan_lines(plan)
+        lines += [
+            f"  warning: {name} outside the workspace: {why}" for name, why in outside.items()
+        ]
+        print("\n".join(lines), flush=True)
+    return 0
+
+
+def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float]:
+    return (values_mm[0] / 1000.0, values_mm[1] / 1000.0, values_mm[2] / 1000.0)
+
+
+# --- status -------------------------------------------------------------------------------------
+
+
+def run_status(args: argparse.Namespace) -> int:
+    """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons."""
+    config = load_config(args.config)
+    calibration = _calibration(config)
+    robot = config.robot
+    report: dict[str, object] = {"config": str(config.path), "host": robot.host}
+    try:
+        arm = _connect(config, _progress(args))
+    except SafetyRefusal as exc:
+        # ur_rtde could not start its control program: that is the reason the cell is not ready.
+        report.update(ready=False, problems=[str(exc)])
+        _print_status(report, [str(exc)], args.json)
+        return EXIT_REFUSED
+    with arm:
+        status = arm.status()
+        T_flange_tcp = arm.tcp_offset()
+        T_base_flange = arm.flange_pose()
+    problems = cell_readiness_problems(
+        status,
+        T_flange_tcp,
+        robot.T_flange_tcp,
+        tolerance_mm=robot.tcp_offset_tolerance_mm,
+        tolerance_deg=robot.tcp_offset_tolerance_deg,
+    )
+    tcp_diff_mm = float(np.linalg.norm(T_flange_tcp[:3, 3] - robot.T_flange_tcp[:3, 3])) * 1000.0
+    tcp_diff_deg = math.degrees(
+        rotation_angle_between(T_flange_tcp[:3, :3], robot.T_flange_tcp[:3, :3])
+    )
+    T_base_tcp = compose(T_base_flange, T_flange_tcp)
+    outside = workspace_problem(T_base_tcp, config.workspace)
+    report.update(
+        ready=not problems,
+        problems=problems,
+        controller_version=status.controller_version,
+        robot_mode=_enum_name(RobotMode, status.robot_mode),
+        safety_mode=_enum_name(SafetyMode, status.safety_mode),
+        runtime_state=_enum_name(RuntimeState, status.runtime_state),
+        remote_control=status.remote_control,
+        tcp_offset=_ur(T_flange_tcp),
+        tcp_offset_configured=_ur(robot.T_flange_tcp),
+        tcp_offset_matches=tcp_diff_mm <= robot.tcp_offset_tolerance_mm
+        and tcp_diff_deg <= robot.tcp_offset_tolerance_deg,
+        tcp_offset_difference={"mm": tcp_diff_mm, "deg": tcp_diff_deg},
+        flange_pose=_ur(T_base_flange),
+        tcp_pose=_ur(T_base_tcp),
+        hand_eye_mode=calibration.mode.value,
+        calibration_file=str(calibration.path),
+        T_base_cam=T_base_cam_rows(calibration, T_base_flange),
+        tcp_in_workspace=outside is None,
+        tcp_outside_workspace=outside,
+    )
+    _print_status(report, problems, args.json)
+    return 0 if not problems else EXIT_REFUSED
+
+
+def T_base_cam_rows(calibration: HandEyeCalibration, T_base_flange: Transform) -> list[list[float]]:
+    """``T_base_cam`` (m) for the configured mode, as nested lists for printing."""
+    return [[float(v) for v in row] for row in calibration.T_base_cam(T_base_flange)]
+
+
+def _enum_name(enum: type[RobotMode] | type[SafetyMode] | type[RuntimeState], value: int) -> str:
+    try:
+        return enum(value).name
+    except ValueError:
+        return f"UNKNOWN ({value})"
+
+
+def _print_status(report: dict[str, object], problems: list[str], as_json: bool) -> None:
+    if as_json:
+        _print_json(report)
+        return
+    lines = [f"cell {report['host']} ({report['config']})"]
+    labels = (
+        ("controller_version", "controller"),
+        ("robot_mode", "robot mode"),
+        ("safety_mode", "safety mode"),
+        ("runtime_state", "runtime state"),
+        ("remote_control", "remote control"),
+        ("tcp_offset", "TCP offset"),
+        ("tcp_offset_configured", "TCP in config"),
+        ("tcp_offset_matches", "TCP matches"),
+        ("flange_pose", "flange pose"),
+        ("tcp_pose", "TCP pose"),
+        ("hand_eye_mode", "hand-eye mode"),
+        ("calibration_file", "calibration"),
+        ("tcp_in_workspace", "TCP in workspace"),
+    )
+    for key, label in labels:
+        if key in report:
+            lines.append(f"  {label:<16} {_show(report[key])}")
+    if report.get("tcp_outside_workspace"):
+        lines.append(f"  {'':<16} outside: {report['tcp_outside_workspace']}")
+    rows = report.get("T_base_cam")
+    if isinstance(rows, list):
+        lines.append("  T_base_cam (m)")
+        lines += [f"    {_show(row)}" for row in rows]
+    if problems:
+        lines.append("NOT READY:")
+        lines += [f"  - {problem}" for problem in problems]
+    else:
+        lines.append("READY to pick")
+    print("\n".join(lines), flush=True)
+
+
+def _show(value: object) -> str:
+    if isinstance(value, list):
+        return "[" + ", ".join(f"{v:.4f}" for v in value) + "]"
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    return str(value)
+
+
+# --- touch-test ---------------------------------------------------------------------------------
+
+
+def run_touch_test(args: argparse.Namespace) -> int:
+    """Approach, descend slowly to the stand-off, go back up; exit 0 when done."""
+    config = load_config(args.config)
+    point_mm = camera_point_mm_from_args(args)
+    if point_mm is None:  # argparse requires one of them; kept for a clear message anyway
+        raise InputError("touch-test: give --xyz X Y Z or --cloud FILE --pixel COL ROW")
+    standoff_mm = float(args.standoff_mm)
+    approach_mm = config.grasp.approach_mm
+    if not 0.0 <= standoff_mm < min(approach_mm, config.grasp.retreat_mm):
+        raise InputError(
+            f"touch-test: --standoff-mm must be at least 0 and less than the config's "
+            f"grasp.approach_mm and grasp.retreat_mm ({approach_mm:g}, "
+            f"{config.grasp.retreat_mm:g}), got {standoff_mm:g}"
+        )
+    source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
+    detection = detection_from_point_mm(point_mm, f"touch-test {source}")
+    calibration = _calibration(config)
+    # A touch test switches nothing: no gripper, whatever the config says.
+    touch_config = replace(config, robot=replace(config.robot, gripper=None))
+    audit = AuditLog(config.audit.file)
+    progress = _progress(args)
+    report: dict[str, object] = {"pick_id": audit.pick_id, "standoff_mm": standoff_mm}
+
+    def show_plan(plan: PickPlan) -> None:
+        report.update(_plan_fields(plan))
+        point = plan.T_base_obj[:3, 3] * 1000.0
+        standoff = plan.targets.grasp[:3, 3] * 1000.0
+        report["point_base_mm"] = point.tolist()
+        if not args.json:
+            print(
+                f"touch point in base: [{point[0]:.1f}, {point[1]:.1f}, {point[2]:.1f}] mm; "
+                f"TCP stops {standoff_mm:g} mm short at "
+                f"[{standoff[0]:.1f}, {standoff[1]:.1f}, {standoff[2]:.1f}] mm",
+                flush=True,
+            )
+
+    def confirm(step: str) -> None:
+        if step != "grasp" or not args.confirm:
+            return
+        try:
+            input(
+                f"at the approach point: press Enter to descend to the {standoff_mm:g} mm "
+                "stand-off (Ctrl-C aborts) "
+            )
+        except EOFError:
+            raise KeyboardInterrupt from None  # no operator to confirm: do not descend
+
+    with _connect(config, progress) as arm:
+        result = run_pick(
+            touch_config,
+            calibration,
+            detection,
+            arm,
+            audit,
+            dry_run=False,
+            progress=progress,
+            on_plan=show_plan,
+            before_move=confirm,
+            standoff_m=standoff_mm / 1000.0,
+        )
+    errors = result.errors()
+    report["reached"] = {name: _ur(T) for name, T in result.reached.items()}
+    if args.json:
+        report["status"] = "done"
+        report["standoff_error_mm"] = errors["grasp"].position_mm
+        _print_json(report)
+    else:
+        print(
+            f"touch-test done: stand-off reached within {errors['grasp'].position_mm:.2f} mm, "
+            f"back at the retreat point; audit records {audit.pick_id} in {audit.path}",
+            flush=True,
+        )
+    return 0
+
+
+# --- shared output ------------------------------------------------------------------------------
+
+
+def _plan_fields(plan: PickPlan) -> dict[str, object]:
+    return {
+        "flange_pose": _ur(plan.T_base_flange),
+        "tcp_offset": _ur(plan.T_flange_tcp),
+        "object_pose": _ur(plan.T_base_obj),
+        "T_base_cam": plan.T_base_cam.tolist(),
+        "targets": {name: _ur(target_of(plan.targets, name)) for name in STEPS},
+    }
+
+
+def _plan_lines(plan: PickPlan) -> list[str]:
+    rows = [
+        ("flange pose", plan.T_base_flange),
+        ("camera", plan.T_base_cam),
+        ("object", plan.T_base_obj),
+    ]
+    rows += [(name, target_of(plan.targets, name)) for name in STEPS]
+    return [f"  {label:<12} {_show(_ur(T))}" for label, T in rows]
+
+
+def _print_json(report: dict[str, object]) -> None:
+    print(json.dumps(report, indent=2), flush=True)
+
+
+def _ur(T: Transform) -> list[float]:
+    return [float(v) for v in matrix_to_ur_pose(T)]
