@@ -224,3 +224,19 @@ def test_unreachable_movel_stops_the_program_and_a_new_client_recovers(
     assert control.reuploadScript()
     wait_for(control.isProgramRunning)
     assert control.moveJ(HOME_Q)
+
+
+def test_upper_range_registers(sim_controller: Callable[..., SimulatedController]) -> None:
+    upper = sim_controller(instant=True)
+    flags = (rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT
+             | rtde_control.RTDEControlInterface.FLAG_UPPER_RANGE_REGISTERS)
+    c = rtde_control.RTDEControlInterface(upper.host, 500.0, flags)
+    try:
+        target = list(upper.snapshot().tcp_pose)
+        target[2] -= 0.05
+        assert c.moveL(target)
+        assert_same_pose(upper.snapshot().tcp_pose, target)
+        assert c.setTcp([0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+        np.testing.assert_allclose(c.getTCPOffset(), [0.0, 0.0, 0.1, 0.0, 0.0, 0.0])
+    finally:
+        c.disconnect()
