@@ -76,7 +76,8 @@ def test_frames_are_drawn_where_the_chain_puts_them(tmp_path: Path) -> None:
     p_base_mm = (T_base_cam[:3, :3] @ np.array(POINT_CAM_MM) / 1000.0 + T_base_cam[:3, 3]) * 1e3
     np.testing.assert_allclose(drawn["object"], p_base_mm, atol=1e-9)
     np.testing.assert_allclose(drawn["grasp"], p_base_mm, atol=1e-9)
-    np.testing.assert_allclose(drawn["approach"], p_base_mm + [0.0, 0.0, 100.0], atol=1e-9)
+    above_mm = np.array([0.0, 0.0, 100.0])  # approach_mm straight up: the tool points down
+    np.testing.assert_allclose(drawn["approach"], p_base_mm + above_mm, atol=1e-9)
     np.testing.assert_allclose(drawn["base"], [0.0, 0.0, 0.0])
     assert set(drawn) == {"base", "flange", "tcp", "camera", "object", *STEPS}
 
