@@ -149,15 +149,33 @@ def workspace_problem(T_base_tcp: Transform, workspace: WorkspaceConfig) -> str 
     return ", ".join(outside) if outside else None
 
 
+ControllerVerdicts = dict[bytes, tuple[bool, bool]]
+"""The controller's (within safety limits, has IK) per target, keyed by the target's bytes."""
+
+
+def _ask_controller(
+    T_base_tcp: Transform, arm: RobotArm, asked: ControllerVerdicts
+) -> tuple[bool, bool]:
+    # Each query costs a few RTDE cycles; a target identical to one already checked (approach
+    # and retreat of a straight-down pick with equal distances) gets the same answer.
+    key = T_base_tcp.tobytes()
+    if key not in asked:
+        asked[key] = (arm.is_pose_within_safety_limits(T_base_tcp), arm.has_ik_solution(T_base_tcp))
+    return asked[key]
+
+
 def _target_checks(
-    name: str, T_base_tcp: Transform, workspace: WorkspaceConfig, arm: RobotArm
+    name: str,
+    T_base_tcp: Transform,
+    workspace: WorkspaceConfig,
+    arm: RobotArm,
+    asked: ControllerVerdicts,
 ) -> list[CheckResult]:
     p_mm = np.round(T_base_tcp[:3, 3] * 1000.0, 1).tolist()
     where = f"the TCP at {p_mm} mm"
     box = workspace_problem(T_base_tcp, workspace)
     tilt = tilt_deg(T_base_tcp)
-    within = arm.is_pose_within_safety_limits(T_base_tcp)
-    reachable = arm.has_ik_solution(T_base_tcp)
+    within, reachable = _ask_controller(T_base_tcp, arm, asked)
     return [
         CheckResult(
             "workspace",
@@ -195,12 +213,13 @@ def preflight(
     """Run every check on every ``T_base_tcp`` target and on the motion parameters.
 
     Returns all results when every check passed; otherwise raises ``PreflightRefusal`` carrying
-    all results (for the audit record). Only asks the controller, never moves it; a controller
-    that cannot answer raises its ``RobotError`` unchanged.
+    all results (for the audit record). Only asks the controller, never moves it, and asks once
+    per distinct target; a controller that cannot answer raises its ``RobotError`` unchanged.
     """
     results = _motion_checks(speeds)
+    asked: ControllerVerdicts = {}
     for name, T_base_tcp in targets.items():
-        results.extend(_target_checks(name, T_base_tcp, workspace, arm))
+        results.extend(_target_checks(name, T_base_tcp, workspace, arm, asked))
     if not all(r.passed for r in results):
         raise PreflightRefusal(results)
     return results

@@ -45,7 +45,7 @@ def _down(x_m: float, y_m: float, z_m: float, tilt_about_x_deg: float = 0.0) -> 
 TARGETS = {
     "approach": _down(0.4, 0.1, 0.3),
     "grasp": _down(0.4, 0.1, 0.2),
-    "retreat": _down(0.4, 0.1, 0.3),
+    "retreat": _down(0.4, 0.1, 0.35),
 }
 
 
@@ -142,6 +142,17 @@ def test_a_good_plan_passes_every_check_and_asks_the_controller_per_target() -> 
     assert arm.asked.count("safety_limits") == 3
     assert arm.asked.count("ik") == 3
     assert arm.motion == []
+
+
+def test_identical_targets_ask_the_controller_once_and_report_for_both() -> None:
+    same = _down(0.4, 0.1, 0.3)
+    targets = {"approach": same, "grasp": _down(0.4, 0.1, 0.2), "retreat": same.copy()}
+    arm = FakeArm(unsafe=(same[:3, 3],))
+    refusal, _ = _refusal(targets=targets, arm=arm)
+    assert arm.asked.count("safety_limits") == 2
+    assert arm.asked.count("ik") == 2
+    assert ("approach", "safety_limits") in _failed(refusal)
+    assert ("retreat", "safety_limits") in _failed(refusal)
 
 
 @pytest.mark.parametrize(
