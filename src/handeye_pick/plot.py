@@ -178,11 +178,23 @@ def _merged_labels(
 
 
 def _scatter(ax: Axes, points_mm: NDArray[np.float64], dims: list[int]) -> None:
-    """Cloud points on one view, small and grey so the frames stay readable."""
+    """Cloud points on one view, shaded by height (darker is higher) so objects stand out from
+    the table in the top view, and grey so the coloured triads stay readable."""
+    z = points_mm[:, 2]
+    # Start the grey ramp below the lowest point so the table is light grey, not white.
+    low = float(z.min()) - 0.3 * max(float(np.ptp(z)), 1.0) if len(z) else 0.0
     if isinstance(ax, Axes3D):
-        ax.scatter(points_mm[:, 0], points_mm[:, 1], points_mm[:, 2], s=1, c="0.6", alpha=0.5)
+        ax.scatter(*points_mm.T, s=3, c=z, cmap="Greys", vmin=low, alpha=0.6)
     else:
-        ax.scatter(points_mm[:, dims[0]], points_mm[:, dims[1]], s=1, c="0.6", alpha=0.5)
+        ax.scatter(
+            points_mm[:, dims[0]],
+            points_mm[:, dims[1]],
+            s=3,
+            c=z,
+            cmap="Greys",
+            vmin=low,
+            alpha=0.6,
+        )
 
 
 def _label(ax: Axes, origin_mm: NDArray[np.float64], dims: list[int], label: str) -> None:

@@ -164,7 +164,7 @@ def run_plan(args: argparse.Namespace) -> int:
     inverted = ", inverted on load" if calibration.inverted else ""
     scene = Scene(
         mode=f"plan: {calibration.mode.value}{inverted}, flange from {flange_source}",
-        calibration_file=calibration.path,
+        calibration_file=_relative_to_cwd(calibration.path),
         T_base_flange=plan.T_base_flange,
         T_base_tcp=compose(plan.T_base_flange, plan.T_flange_tcp),
         T_base_cam=plan.T_base_cam,
@@ -198,6 +198,15 @@ def run_plan(args: argparse.Namespace) -> int:
         ]
         print("\n".join(lines), flush=True)
     return 0
+
+
+def _relative_to_cwd(path: Path) -> Path:
+    """``path`` as the operator typed it, roughly: relative when it lies below the working
+    directory, so a picture does not carry one machine's absolute paths."""
+    try:
+        return path.relative_to(Path.cwd())
+    except ValueError:
+        return path
 
 
 def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float]:
