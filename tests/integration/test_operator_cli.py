@@ -32,10 +32,12 @@ POINT_CAM_MM = ("30", "-20", "380")
 CLI = [sys.executable, "-c", "import sys; from handeye_pick.cli import main; sys.exit(main())"]
 
 
-def write_config(tmp_path: Path, host: str, tcp_offset: tuple[float, ...] = TCP_OFFSET) -> Path:
+def write_config(
+    tmp_path: Path, host: str, tcp_offset: tuple[float, ...] = TCP_OFFSET, gripper: str = ""
+) -> Path:
     path = tmp_path / "cell.yaml"
     path.write_text(
-        f"robot:\n  host: {host}\n  tcp_offset: {list(tcp_offset)}\n"
+        f"robot:\n  host: {host}\n  tcp_offset: {list(tcp_offset)}\n{gripper}"
         f"hand_eye:\n  mode: eye-in-hand\n  file: {HAND_EYE}\n  units: mm\n"
         "grasp:\n  approach_mm: 100\n  retreat_mm: 100\n"
         f"motion:\n  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: {GRASP_SPEED_MPS}\n"
@@ -192,10 +194,12 @@ def test_touch_test_descends_slowly_to_the_standoff_and_back(
 ) -> None:
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     point = expected_point_base_m(ctl)
+    # A gripper in the config is never switched by a touch test.
+    gripper = "  gripper:\n    bank: tool\n    index: 0\n    close_value: true\n"
     result = cli(
         "touch-test",
         "--config",
-        str(write_config(tmp_path, ctl.host)),
+        str(write_config(tmp_path, ctl.host, gripper=gripper)),
         "--xyz",
         *POINT_CAM_MM,
         "--standoff-mm",
@@ -213,6 +217,7 @@ def test_touch_test_descends_slowly_to_the_standoff_and_back(
     np.testing.assert_allclose(standoff[:3, 3], point + np.array([0.0, 0.0, 0.015]), atol=1e-9)
     np.testing.assert_allclose(back, approach, atol=1e-12)
     assert moves[1]["speed"] == GRASP_SPEED_MPS
+    assert ctl.snapshot().tool_digital_out == 0
     np.testing.assert_allclose(
         ur_pose_to_matrix(list(ctl.snapshot().tcp_pose)), approach, atol=1e-6
     )

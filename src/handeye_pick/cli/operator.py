@@ -131,11 +131,10 @@ def _calibration(config: CellConfig) -> HandEyeCalibration:
     return load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
 
 
-def _connect(config: CellConfig, progress: Progress, *, with_io: bool = False) -> URRtdeArm:
+def _connect(config: CellConfig, progress: Progress) -> URRtdeArm:
+    """Receive and control interfaces only: none of these commands switches an output."""
     with progress.step(f"connecting to {config.robot.host}"):
-        return URRtdeArm(
-            config.robot.host, with_io=with_io, stop_decel_mps2=config.motion.stop_decel_mps2
-        )
+        return URRtdeArm(config.robot.host, stop_decel_mps2=config.motion.stop_decel_mps2)
 
 
 # --- plan --plot --------------------------------------------------------------------------------
@@ -148,8 +147,7 @@ def run_plan(args: argparse.Namespace) -> int:
     calibration = _calibration(config)
     T_base_flange = robot_pose_from_args(args)
     if T_base_flange is None:
-        progress = _progress(args)
-        with _connect(config, progress) as arm:
+        with _connect(config, _progress(args)) as arm:
             T_flange_tcp = arm.tcp_offset()
             T_base_flange = arm.flange_pose()
         flange_source = f"live robot {config.robot.host}"
@@ -263,17 +261,12 @@ def run_status(args: argparse.Namespace) -> int:
         tcp_pose=_ur(T_base_tcp),
         hand_eye_mode=calibration.mode.value,
         calibration_file=str(calibration.path),
-        T_base_cam=T_base_cam_rows(calibration, T_base_flange),
+        T_base_cam=calibration.T_base_cam(T_base_flange).tolist(),
         tcp_in_workspace=outside is None,
         tcp_outside_workspace=outside,
     )
     _print_status(report, problems, args.json)
     return 0 if not problems else EXIT_REFUSED
-
-
-def T_base_cam_rows(calibration: HandEyeCalibration, T_base_flange: Transform) -> list[list[float]]:
-    """``T_base_cam`` (m) for the configured mode, as nested lists for printing."""
-    return [[float(v) for v in row] for row in calibration.T_base_cam(T_base_flange)]
 
 
 def _enum_name(enum: type[RobotMode] | type[SafetyMode] | type[RuntimeState], value: int) -> str:
