@@ -78,12 +78,13 @@ def cloud_to_base_m(
     """A subsample of a camera-frame cloud (mm, any shape (..., 3), NaN = no data) in the base
     frame, metres, shape (N, 3) with N <= ``max_points``; points without data are dropped.
 
-    The subsample takes every k-th valid point, so the same cloud always gives the same picture.
+    Every k-th point is taken before the missing ones are dropped (a 5 MP cloud is never scanned
+    in full), so the same cloud always gives the same picture.
     """
     points = np.asarray(xyz_mm).reshape(-1, 3)
-    valid = points[np.all(np.isfinite(points), axis=1)]
-    step = max(1, -(-len(valid) // max_points))  # ceil division
-    sample_m = valid[::step].astype(np.float64) / _M_TO_MM
+    step = max(1, -(-len(points) // max_points))  # ceil division
+    sample = points[::step]
+    sample_m = sample[np.all(np.isfinite(sample), axis=1)].astype(np.float64) / _M_TO_MM
     out: NDArray[np.float64] = sample_m @ T_base_cam[:3, :3].T + T_base_cam[:3, 3]
     return out
 

@@ -102,7 +102,7 @@ def test_cloud_subsample_drops_missing_points_and_lands_in_base() -> None:
     cloud_mm = np.full((100, 120, 3), np.nan, dtype=np.float32)
     cloud_mm[:, :60] = [10.0, 20.0, 1000.0]
     points = cloud_to_base_m(cloud_mm, T_base_cam, max_points=1000)
-    assert 500 <= len(points) <= 1000
+    assert 400 <= len(points) <= 1000
     assert np.all(np.isfinite(points))
     # camera looking down from 1.2 m: (10, 20, 1000) mm -> base (0.51, 0.08, 0.2) m
     np.testing.assert_allclose(points, np.tile([0.51, 0.08, 0.2], (len(points), 1)), atol=1e-6)
