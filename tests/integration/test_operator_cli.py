@@ -233,15 +233,18 @@ def test_touch_test_confirm_waits_for_enter(sim_controller: SimFactory, tmp_path
     for answer, expected_moves, expected_status in (("", 1, 130), ("\n", 3, 0)):
         ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
         config = write_config(tmp_path, ctl.host)
-        result = cli(
-            "touch-test", "--config", str(config), "--xyz", *POINT_CAM_MM, "--confirm", stdin=answer
-        )
+        point = expected_point_base_m(ctl)
+        args = ("--config", str(config), "--xyz", *POINT_CAM_MM, "--confirm", "--json")
+        result = cli("touch-test", *args, stdin=answer)
         assert result.returncode == expected_status, result.stderr
-        assert "press Enter to descend" in result.stdout
+        assert "press Enter to descend" in result.stderr
         moves = [c for c in ctl.commands if c["kind"].startswith("move")]
         # Without an answer (stdin closed) the arm stays at the approach point: no descent.
         assert len(moves) == expected_moves
         assert audit_records(tmp_path)[-1]["status"] == ("done" if answer else "interrupted")
+        report = json.loads(result.stdout)  # the prompt never mixes into the JSON
+        np.testing.assert_allclose(report["point_base_mm"], point * 1000.0, atol=1e-6)
+        assert report["status"] == ("done" if answer else "failed")
 
 
 def test_touch_test_refuses_a_standoff_beyond_the_approach(

@@ -35,7 +35,7 @@ from handeye_pick.cli.pick import detection_from_args
 from handeye_pick.cloudio import read_cloud
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import detection_from_point_mm
-from handeye_pick.errors import InputError, SafetyRefusal
+from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
 from handeye_pick.geometry import Transform, compose, matrix_to_ur_pose, rotation_angle_between
 from handeye_pick.pick import STEPS, PickPlan, chain_plan, run_pick, target_of
 from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
@@ -328,7 +328,7 @@ def run_touch_test(args: argparse.Namespace) -> int:
     """Approach, descend slowly to the stand-off, go back up; exit 0 when done."""
     config = load_config(args.config)
     point_mm = camera_point_mm_from_args(args)
-    if point_mm is None:  # argparse requires one of them; kept for a clear message anyway
+    if point_mm is None:  # argparse already requires --xyz or --cloud
         raise InputError("touch-test: give --xyz X Y Z or --cloud FILE --pixel COL ROW")
     standoff_mm = float(args.standoff_mm)
     approach_mm = config.grasp.approach_mm
@@ -363,27 +363,36 @@ def run_touch_test(args: argparse.Namespace) -> int:
     def confirm(step: str) -> None:
         if step != "grasp" or not args.confirm:
             return
-        try:
-            input(
-                f"at the approach point: press Enter to descend to the {standoff_mm:g} mm "
-                "stand-off (Ctrl-C aborts) "
-            )
-        except EOFError:
-            raise KeyboardInterrupt from None  # no operator to confirm: do not descend
-
-    with _connect(config, progress) as arm:
-        result = run_pick(
-            touch_config,
-            calibration,
-            detection,
-            arm,
-            audit,
-            dry_run=False,
-            progress=progress,
-            on_plan=show_plan,
-            before_move=confirm,
-            standoff_m=standoff_mm / 1000.0,
+        # The prompt goes to stderr so that stdout stays one JSON object with --json.
+        print(
+            f"at the approach point: press Enter to descend to the {standoff_mm:g} mm stand-off "
+            "(Ctrl-C aborts) ",
+            end="",
+            file=sys.stderr,
+            flush=True,
         )
+        if not sys.stdin.readline():
+            raise KeyboardInterrupt  # stdin closed: nobody confirmed, so do not descend
+
+    try:
+        with _connect(config, progress) as arm:
+            result = run_pick(
+                touch_config,
+                calibration,
+                detection,
+                arm,
+                audit,
+                dry_run=False,
+                progress=progress,
+                on_plan=show_plan,
+                before_move=confirm,
+                standoff_m=standoff_mm / 1000.0,
+            )
+    except (HandEyePickError, KeyboardInterrupt) as exc:
+        if args.json:  # the operator's record even when it ends early; the dispatcher reports
+            report.update(status="failed", error=str(exc) or type(exc).__name__)
+            _print_json(report)
+        raise
     errors = result.errors()
     report["reached"] = {name: _ur(T) for name, T in result.reached.items()}
     if args.json:
