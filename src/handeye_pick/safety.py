@@ -19,7 +19,14 @@ import numpy as np
 
 from handeye_pick.errors import SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
-from handeye_pick.robot.port import RobotArm, RobotMode, RobotStatus, RuntimeState, SafetyMode
+from handeye_pick.robot.port import (
+    RobotArm,
+    RobotMode,
+    RobotStatus,
+    RuntimeState,
+    SafetyMode,
+    mode_name,
+)
 
 if TYPE_CHECKING:  # config imports the caps below; the types are only needed for annotations
     from handeye_pick.config import MotionConfig, WorkspaceConfig
@@ -228,13 +235,6 @@ def preflight(
 # --- is the cell ready to move? -----------------------------------------------------------------
 
 
-def _name(enum: type[SafetyMode] | type[RobotMode] | type[RuntimeState], value: int) -> str:
-    try:
-        return enum(value).name
-    except ValueError:
-        return f"unknown ({value})"
-
-
 def cell_readiness_problems(
     status: RobotStatus,
     T_flange_tcp_actual: Transform,
@@ -276,18 +276,18 @@ def cell_readiness_problems(
         )
     if safety in (SafetyMode.VIOLATION, SafetyMode.FAULT, SafetyMode.RECOVERY):
         problems.append(
-            f"safety system reports {_name(SafetyMode, safety)}: read the pendant's log, clear "
+            f"safety system reports {mode_name(SafetyMode, safety)}: read the pendant's log, clear "
             "the fault there (restart the safety system if it asks), then try again"
         )
     if status.robot_mode != RobotMode.RUNNING:
         problems.append(
-            f"arm is not running (robot mode {_name(RobotMode, status.robot_mode)}): on the "
+            f"arm is not running (robot mode {mode_name(RobotMode, status.robot_mode)}): on the "
             "pendant power it on and release the brakes (ON, then START)"
         )
     if status.runtime_state != RuntimeState.PLAYING:
         problems.append(
             "the remote control program is not running (runtime state "
-            f"{_name(RuntimeState, status.runtime_state)}): stop any program running on the "
+            f"{mode_name(RuntimeState, status.runtime_state)}): stop any program running on the "
             "pendant and connect again"
         )
     offset_mm = 1000.0 * float(

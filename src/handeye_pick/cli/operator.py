@@ -40,7 +40,7 @@ from handeye_pick.geometry import Transform, compose, matrix_to_ur_pose, rotatio
 from handeye_pick.pick import STEPS, PickPlan, chain_plan, run_pick, target_of
 from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode
+from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode, mode_name
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from handeye_pick.safety import cell_readiness_problems, workspace_problem
 
@@ -248,9 +248,9 @@ def run_status(args: argparse.Namespace) -> int:
         ready=not problems,
         problems=problems,
         controller_version=status.controller_version,
-        robot_mode=_enum_name(RobotMode, status.robot_mode),
-        safety_mode=_enum_name(SafetyMode, status.safety_mode),
-        runtime_state=_enum_name(RuntimeState, status.runtime_state),
+        robot_mode=mode_name(RobotMode, status.robot_mode),
+        safety_mode=mode_name(SafetyMode, status.safety_mode),
+        runtime_state=mode_name(RuntimeState, status.runtime_state),
         remote_control=status.remote_control,
         tcp_offset=_ur(T_flange_tcp),
         tcp_offset_configured=_ur(robot.T_flange_tcp),
@@ -267,13 +267,6 @@ def run_status(args: argparse.Namespace) -> int:
     )
     _print_status(report, problems, args.json)
     return 0 if not problems else EXIT_REFUSED
-
-
-def _enum_name(enum: type[RobotMode] | type[SafetyMode] | type[RuntimeState], value: int) -> str:
-    try:
-        return enum(value).name
-    except ValueError:
-        return f"UNKNOWN ({value})"
 
 
 def _print_status(report: dict[str, object], problems: list[str], as_json: bool) -> None:

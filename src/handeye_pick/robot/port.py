@@ -59,6 +59,15 @@ class RuntimeState(enum.IntEnum):
     RESUMING = 5
 
 
+def mode_name(enum_type: type[enum.IntEnum], value: int) -> str:
+    """Name of a UR mode value for messages, e.g. ``PROTECTIVE_STOP``; ``unknown (42)`` for a value
+    this enum does not list (newer firmware)."""
+    try:
+        return enum_type(value).name
+    except ValueError:
+        return f"unknown ({value})"
+
+
 class OutputBank(enum.Enum):
     """Which digital outputs a gripper is wired to."""
 

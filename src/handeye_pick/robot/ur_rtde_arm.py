@@ -20,7 +20,6 @@ import subprocess
 import sys
 import threading
 import time
-from enum import IntEnum
 from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
@@ -43,6 +42,7 @@ from handeye_pick.robot.port import (
     RobotStatus,
     RuntimeState,
     SafetyMode,
+    mode_name,
 )
 from handeye_pick.robot.worker import Failure, Sample
 
@@ -132,17 +132,10 @@ def _fmt_pose(pose: list[float]) -> str:
 
 def _state_text(sample: Sample) -> str:
     return (
-        f"safety mode {_enum_name(SafetyMode, sample.safety_mode)}, runtime state "
-        f"{_enum_name(RuntimeState, sample.runtime_state)}, robot mode "
-        f"{_enum_name(RobotMode, sample.robot_mode)}"
+        f"safety mode {mode_name(SafetyMode, sample.safety_mode)}, runtime state "
+        f"{mode_name(RuntimeState, sample.runtime_state)}, robot mode "
+        f"{mode_name(RobotMode, sample.robot_mode)}"
     )
-
-
-def _enum_name(enum_type: type[IntEnum], value: int) -> str:
-    try:
-        return enum_type(value).name
-    except ValueError:
-        return str(value)
 
 
 def motion_fraction(T_start: Transform, T_now: Transform, T_target: Transform) -> float:
@@ -286,8 +279,8 @@ class URRtdeArm:
         robot mode, the link, and ``timeout_s``, counted in time at full speed (a speed slider
         at 50 % gives the move twice as long in wall-clock time). A fault sends stopL (where
         the link still works) and raises RobotFault; a lost link stops the program through a
-        fresh dashboard connection and raises RobotConnectionError; Ctrl-C sends stopL and
-        propagates.
+        fresh dashboard connection and raises RobotConnectionError; Ctrl-C, or any other
+        exception (a failing ``on_progress``), sends stopL and propagates.
         """
         target = _to_ur_list(T_base_tcp)
         try:
@@ -302,14 +295,11 @@ class URRtdeArm:
             reached = self._sample("fresh_sample")
             self._check_motion_sample(reached)
             self._check_reached(reached, T_base_tcp)
-        except KeyboardInterrupt:
-            log.warning("interrupted during moveL: sending stopL")
-            self.stop_linear(self._stop_decel_mps2)
-            raise
         except RobotConnectionError:
             self._stop_by_dashboard()
             raise
-        except RobotFault:
+        except BaseException as exc:  # a fault, Ctrl-C, or anything unforeseen: never keep moving
+            log.warning("moveL ended by %s: sending stopL", type(exc).__name__)
             self.stop_linear(self._stop_decel_mps2)
             raise
         return ur_pose_to_matrix(reached.tcp_pose)
@@ -508,7 +498,7 @@ class URRtdeArm:
             if advice is None and failure.robot_mode != RobotMode.RUNNING:
                 advice = (
                     f"the arm is not running (robot mode "
-                    f"{_enum_name(RobotMode, failure.robot_mode)}): power it on and release the "
+                    f"{mode_name(RobotMode, failure.robot_mode)}): power it on and release the "
                     "brakes on the pendant"
                 )
             if advice is not None:
