@@ -5,14 +5,24 @@ is ever unlocked or re-sent by itself.
 
 from __future__ import annotations
 
+import socket
 from collections.abc import Callable
+from pathlib import Path
 
 import pytest
 
+from handeye_pick.errors import RobotConnectionError
 from handeye_pick.geometry import Transform
-from handeye_pick.robot.port import RuntimeState
+from handeye_pick.robot.port import RuntimeState, SafetyMode
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
+from tests.integration.test_pick_cli import (
+    DEMO,
+    TCP_OFFSET,
+    audit_records,
+    run_json,
+    write_config,
+)
 
 SimFactory = Callable[..., SimulatedController]
 
@@ -38,3 +48,34 @@ def test_an_unexpected_error_during_a_move_stops_the_arm(sim_controller: SimFact
         assert arm.status().runtime_state == RuntimeState.PLAYING  # session still usable
     assert [c["kind"] for c in ctl.commands] == ["moveL", "stopL"]
     assert not ctl.snapshot().moving
+
+
+def test_a_controller_silent_at_connect_is_a_bounded_connection_error(loopback_host: str) -> None:
+    # Port 30004 accepts but never answers (a hung controller, a wrong device): ur_rtde would
+    # wait for the RTDE handshake forever; the connection must end with a typed error.
+    with socket.create_server((loopback_host, 30004)) as server:
+        server.settimeout(5.0)
+        with pytest.raises(RobotConnectionError, match="no answer to connect"):
+            URRtdeArm(loopback_host, connect_timeout_s=2.0)
+
+
+def test_a_protective_stop_is_left_for_the_operator(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # Field note 11: no automatic unlock, no retry. After the pick ends with the fault, the
+    # controller is still protective-stopped, and nothing but stops followed the faulted move.
+    ctl = sim_controller(
+        tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("protective-stop@move:2:0.5",)
+    )
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 4, report
+    assert "protective stop" in report["error"]
+    snapshot = ctl.snapshot()
+    assert snapshot.safety_mode == SafetyMode.PROTECTIVE_STOP
+    assert not snapshot.moving
+    kinds = [c["kind"] for c in ctl.commands]
+    assert kinds[:2] == ["moveL", "moveL"]
+    assert set(kinds[2:]) <= {"stopL"}
+    assert audit_records(tmp_path)[-1]["error"]["safety_mode"] == SafetyMode.PROTECTIVE_STOP
