@@ -14,7 +14,6 @@ Robot poses are printed as UR vectors (m, rad); points in the base frame in mm.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 from dataclasses import replace
@@ -23,20 +22,28 @@ from pathlib import Path
 import numpy as np
 
 from handeye_pick.audit import AuditLog
-from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
 from handeye_pick.cli import EXIT_REFUSED
+from handeye_pick.cli.cell import (
+    add_config_arg,
+    add_detection_arg,
+    calibration_from_config,
+    detection_from_args,
+    plan_fields,
+    print_json,
+    progress_from_args,
+    ur_vector,
+)
 from handeye_pick.cli.common import (
     add_camera_point_args,
     add_robot_pose_args,
     camera_point_mm_from_args,
     robot_pose_from_args,
 )
-from handeye_pick.cli.pick import detection_from_args
 from handeye_pick.cloudio import read_cloud
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
-from handeye_pick.geometry import Transform, compose, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.geometry import compose, rotation_angle_between
 from handeye_pick.pick import STEPS, PickPlan, chain_plan, run_pick, target_of
 from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
 from handeye_pick.progress import Progress
@@ -57,13 +64,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "workspace box and the cloud when given. The flange pose comes from --robot-pose / "
         "--robot-pose-ur, or from the live robot in the config when neither is given.",
     )
-    _add_config_arg(plan)
-    plan.add_argument(
-        "--detection",
-        type=Path,
-        metavar="FILE",
-        help="detection file: position_mm and an optional orientation, camera frame",
-    )
+    add_config_arg(plan)
+    add_detection_arg(plan)
     add_camera_point_args(plan, required=False)
     add_robot_pose_args(plan)
     plan.add_argument(
@@ -79,7 +81,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "state, remote control, the active TCP offset against the config, the flange pose, "
         "T_base_cam and whether the workspace box holds the current TCP.",
     )
-    _add_config_arg(status)
+    add_config_arg(status)
     _add_json_arg(status)
     status.set_defaults(run=run_status)
 
@@ -91,7 +93,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "the stand-off, and goes back up, with the pick's readiness and pre-flight checks and "
         "audit records. No gripper output is switched.",
     )
-    _add_config_arg(touch)
+    add_config_arg(touch)
     add_camera_point_args(touch, required=True)
     touch.add_argument(
         "--standoff-mm",
@@ -110,25 +112,10 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     touch.set_defaults(run=run_touch_test)
 
 
-def _add_config_arg(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--config", required=True, type=Path, metavar="FILE", help="cell configuration (YAML)"
-    )
-
-
 def _add_json_arg(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json", action="store_true", help="print one JSON object on stdout; no progress lines"
     )
-
-
-def _progress(args: argparse.Namespace) -> Progress:
-    return Progress(None if args.quiet or args.json else sys.stderr)
-
-
-def _calibration(config: CellConfig) -> HandEyeCalibration:
-    hand_eye = config.hand_eye
-    return load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
 
 
 def _connect(config: CellConfig, progress: Progress) -> URRtdeArm:
@@ -144,10 +131,10 @@ def run_plan(args: argparse.Namespace) -> int:
     """Plan like a pick and write the PNG; exit 0. Nothing is sent to the robot but reads."""
     config = load_config(args.config)
     detection = detection_from_args(args)
-    calibration = _calibration(config)
+    calibration = calibration_from_config(config)
     T_base_flange = robot_pose_from_args(args)
     if T_base_flange is None:
-        with _connect(config, _progress(args)) as arm:
+        with _connect(config, progress_from_args(args)) as arm:
             T_flange_tcp = arm.tcp_offset()
             T_base_flange = arm.flange_pose()
         flange_source = f"live robot {config.robot.host}"
@@ -180,11 +167,11 @@ def run_plan(args: argparse.Namespace) -> int:
         if (problem := workspace_problem(target_of(plan.targets, name), config.workspace))
     }
     if args.json:
-        _print_json(
+        print_json(
             {
                 "plot": str(args.plot),
                 "flange_source": flange_source,
-                **_plan_fields(plan),
+                **plan_fields(plan),
                 "outside_workspace": outside,
             }
         )
@@ -217,11 +204,11 @@ def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float
 def run_status(args: argparse.Namespace) -> int:
     """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons."""
     config = load_config(args.config)
-    calibration = _calibration(config)
+    calibration = calibration_from_config(config)
     robot = config.robot
     report: dict[str, object] = {"config": str(config.path), "host": robot.host}
     try:
-        arm = _connect(config, _progress(args))
+        arm = _connect(config, progress_from_args(args))
     except SafetyRefusal as exc:
         # ur_rtde could not start its control program: that is the reason the cell is not ready.
         report.update(ready=False, problems=[str(exc)])
@@ -252,13 +239,13 @@ def run_status(args: argparse.Namespace) -> int:
         safety_mode=mode_name(SafetyMode, status.safety_mode),
         runtime_state=mode_name(RuntimeState, status.runtime_state),
         remote_control=status.remote_control,
-        tcp_offset=_ur(T_flange_tcp),
-        tcp_offset_configured=_ur(robot.T_flange_tcp),
+        tcp_offset=ur_vector(T_flange_tcp),
+        tcp_offset_configured=ur_vector(robot.T_flange_tcp),
         tcp_offset_matches=tcp_diff_mm <= robot.tcp_offset_tolerance_mm
         and tcp_diff_deg <= robot.tcp_offset_tolerance_deg,
         tcp_offset_difference={"mm": tcp_diff_mm, "deg": tcp_diff_deg},
-        flange_pose=_ur(T_base_flange),
-        tcp_pose=_ur(T_base_tcp),
+        flange_pose=ur_vector(T_base_flange),
+        tcp_pose=ur_vector(T_base_tcp),
         hand_eye_mode=calibration.mode.value,
         calibration_file=str(calibration.path),
         T_base_cam=calibration.T_base_cam(T_base_flange).tolist(),
@@ -271,7 +258,7 @@ def run_status(args: argparse.Namespace) -> int:
 
 def _print_status(report: dict[str, object], problems: list[str], as_json: bool) -> None:
     if as_json:
-        _print_json(report)
+        print_json(report)
         return
     lines = [f"cell {report['host']} ({report['config']})"]
     labels = (
@@ -333,15 +320,15 @@ def run_touch_test(args: argparse.Namespace) -> int:
         )
     source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
     detection = detection_from_point_mm(point_mm, f"touch-test {source}")
-    calibration = _calibration(config)
+    calibration = calibration_from_config(config)
     # A touch test switches nothing: no gripper, whatever the config says.
     touch_config = replace(config, robot=replace(config.robot, gripper=None))
     audit = AuditLog(config.audit.file)
-    progress = _progress(args)
+    progress = progress_from_args(args)
     report: dict[str, object] = {"pick_id": audit.pick_id, "standoff_mm": standoff_mm}
 
     def show_plan(plan: PickPlan) -> None:
-        report.update(_plan_fields(plan))
+        report.update(plan_fields(plan))
         point = plan.T_base_obj[:3, 3] * 1000.0
         standoff = plan.targets.grasp[:3, 3] * 1000.0
         report["point_base_mm"] = point.tolist()
@@ -384,14 +371,14 @@ def run_touch_test(args: argparse.Namespace) -> int:
     except (HandEyePickError, KeyboardInterrupt) as exc:
         if args.json:  # the operator's record even when it ends early; the dispatcher reports
             report.update(status="failed", error=str(exc) or type(exc).__name__)
-            _print_json(report)
+            print_json(report)
         raise
     errors = result.errors()
-    report["reached"] = {name: _ur(T) for name, T in result.reached.items()}
+    report["reached"] = {name: ur_vector(T) for name, T in result.reached.items()}
     if args.json:
         report["status"] = "done"
         report["standoff_error_mm"] = errors["grasp"].position_mm
-        _print_json(report)
+        print_json(report)
     else:
         print(
             f"touch-test done: stand-off reached within {errors['grasp'].position_mm:.2f} mm, "
@@ -404,16 +391,6 @@ def run_touch_test(args: argparse.Namespace) -> int:
 # --- shared output ------------------------------------------------------------------------------
 
 
-def _plan_fields(plan: PickPlan) -> dict[str, object]:
-    return {
-        "flange_pose": _ur(plan.T_base_flange),
-        "tcp_offset": _ur(plan.T_flange_tcp),
-        "object_pose": _ur(plan.T_base_obj),
-        "T_base_cam": plan.T_base_cam.tolist(),
-        "targets": {name: _ur(target_of(plan.targets, name)) for name in STEPS},
-    }
-
-
 def _plan_lines(plan: PickPlan) -> list[str]:
     rows = [
         ("flange pose", plan.T_base_flange),
@@ -421,12 +398,4 @@ def _plan_lines(plan: PickPlan) -> list[str]:
         ("object", plan.T_base_obj),
     ]
     rows += [(name, target_of(plan.targets, name)) for name in STEPS]
-    return [f"  {label:<12} {_show(_ur(T))}" for label, T in rows]
-
-
-def _print_json(report: dict[str, object]) -> None:
-    print(json.dumps(report, indent=2), flush=True)
-
-
-def _ur(T: Transform) -> list[float]:
-    return [float(v) for v in matrix_to_ur_pose(T)]
+    return [f"  {label:<12} {_show(ur_vector(T))}" for label, T in rows]

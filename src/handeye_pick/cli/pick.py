@@ -9,17 +9,24 @@ the ending: the plan (UR pose vectors, m and rad) as far as it got, the status a
 from __future__ import annotations
 
 import argparse
-import json
-import sys
 from dataclasses import asdict
-from pathlib import Path
 
 from handeye_pick.audit import AuditLog
-from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
-from handeye_pick.cli.common import add_camera_point_args, camera_point_mm_from_args
+from handeye_pick.calibration import HandEyeCalibration
+from handeye_pick.cli.cell import (
+    add_config_arg,
+    add_detection_arg,
+    calibration_from_config,
+    detection_from_args,
+    plan_fields,
+    print_json,
+    progress_from_args,
+    ur_vector,
+)
+from handeye_pick.cli.common import add_camera_point_args
 from handeye_pick.config import CellConfig, load_config
-from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
-from handeye_pick.errors import HandEyePickError, InputError, RobotError, SafetyRefusal
+from handeye_pick.detection import Detection
+from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose
 from handeye_pick.pick import STEPS, PickPlan, PickResult, run_pick, target_of
 from handeye_pick.progress import Progress
@@ -38,15 +45,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "Exit status: 0 done, 2 bad input or config, 3 refused by a check (nothing moved), "
         "4 robot fault, 130 interrupted.",
     )
-    parser.add_argument(
-        "--config", required=True, type=Path, metavar="FILE", help="cell configuration (YAML)"
-    )
-    parser.add_argument(
-        "--detection",
-        type=Path,
-        metavar="FILE",
-        help="detection file: position_mm and an optional orientation, camera frame",
-    )
+    add_config_arg(parser)
+    add_detection_arg(parser)
     add_camera_point_args(parser, required=False)
     parser.add_argument(
         "--dry-run",
@@ -61,22 +61,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser.set_defaults(run=run)
 
 
-def detection_from_args(args: argparse.Namespace) -> Detection:
-    """The detection from ``--detection FILE`` or a camera point (``--xyz`` / ``--cloud``)."""
-    point_mm = camera_point_mm_from_args(args)
-    if args.detection is not None and point_mm is not None:
-        raise InputError("pick: give either --detection FILE or a camera point, not both")
-    if args.detection is not None:
-        return load_detection(args.detection)
-    if point_mm is None:
-        raise InputError(
-            "pick: no object given: use --detection FILE, --xyz X Y Z or --cloud FILE --pixel "
-            "COL ROW"
-        )
-    source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
-    return detection_from_point_mm(point_mm, source)
-
-
 def run(args: argparse.Namespace) -> int:
     """Exit 0 when the pick (or dry run) is done; typed errors propagate to the dispatcher,
     after the JSON report is printed."""
@@ -87,23 +71,22 @@ def run(args: argparse.Namespace) -> int:
             config=str(config.path), host=config.robot.host, audit_file=str(config.audit.file)
         )
         detection = detection_from_args(args)
-        hand_eye = config.hand_eye
-        calibration = load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
+        calibration = calibration_from_config(config)
         audit = AuditLog(config.audit.file)
         report["pick_id"] = audit.pick_id
-        progress = Progress(None if args.quiet or args.json else sys.stderr)
+        progress = progress_from_args(args)
         result = _connect_and_pick(config, calibration, detection, audit, args, progress, report)
     except (HandEyePickError, KeyboardInterrupt) as exc:
         report.update(_failure_fields(exc))
         if args.json:
-            _print_json(report)
+            print_json(report)
         raise
     status = "dry-run" if args.dry_run else "done"
     report["status"] = status
     report["checks"] = [asdict(check) for check in result.checks]
     report["errors"] = {name: asdict(error) for name, error in result.errors().items()}
     if args.json:
-        _print_json(report)
+        print_json(report)
     else:
         _print_summary(result, status, audit)
     return 0
@@ -119,7 +102,7 @@ def _connect_and_pick(
     report: dict[str, object],
 ) -> PickResult:
     def keep_plan(plan: PickPlan) -> None:
-        report.update(_plan_fields(plan))
+        report.update(plan_fields(plan))
 
     with progress.step(f"connecting to {config.robot.host}"):
         arm = URRtdeArm(
@@ -139,18 +122,8 @@ def _connect_and_pick(
             progress=progress,
             on_plan=keep_plan,
         )
-    report["reached"] = {name: _ur(T) for name, T in result.reached.items()}
+    report["reached"] = {name: ur_vector(T) for name, T in result.reached.items()}
     return result
-
-
-def _plan_fields(plan: PickPlan) -> dict[str, object]:
-    return {
-        "flange_pose": _ur(plan.T_base_flange),
-        "tcp_offset": _ur(plan.T_flange_tcp),
-        "object_pose": _ur(plan.T_base_obj),
-        "T_base_cam": plan.T_base_cam.tolist(),
-        "targets": {name: _ur(target_of(plan.targets, name)) for name in STEPS},
-    }
 
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:
@@ -166,10 +139,6 @@ def _failure_fields(exc: BaseException) -> dict[str, object]:
     if isinstance(exc, PreflightRefusal):
         fields["checks"] = [asdict(check) for check in exc.results]
     return fields
-
-
-def _print_json(report: dict[str, object]) -> None:
-    print(json.dumps(report, indent=2), flush=True)
 
 
 def _print_summary(result: PickResult, status: str, audit: AuditLog) -> None:
@@ -191,7 +160,3 @@ def _print_summary(result: PickResult, status: str, audit: AuditLog) -> None:
 
 def _fmt(T: Transform) -> str:
     return "[" + ", ".join(f"{v:8.4f}" for v in matrix_to_ur_pose(T)) + "]"
-
-
-def _ur(T: Transform) -> list[float]:
-    return [float(v) for v in matrix_to_ur_pose(T)]
