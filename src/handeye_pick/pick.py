@@ -16,6 +16,7 @@ import math
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, replace
+from typing import TypeVar
 
 import numpy as np
 
@@ -50,6 +51,8 @@ TIMEOUT_FACTOR = 1.5
 ramps) before the margin from the config starts counting."""
 
 STEPS = ("approach", "grasp", "retreat")
+
+ArmT = TypeVar("ArmT")
 
 
 @dataclass(frozen=True)
@@ -223,6 +226,24 @@ def run_pick(
     outcome["errors"] = {name: asdict(error) for name, error in result.errors().items()}
     audit.append(outcome)
     return result
+
+
+def connect_audited(audit: AuditLog, connect: Callable[[], ArmT], *, dry_run: bool) -> ArmT:
+    """``connect()``; when it fails (connection refused or lost, cell refusing the control
+    program, Ctrl-C) an outcome record is appended before the error propagates, so a pick that
+    never reached ``run_pick`` is on disk too."""
+    try:
+        return connect()
+    except BaseException as exc:
+        outcome: dict[str, object] = {
+            "event": "outcome",
+            "dry_run": dry_run,
+            "step": "connect",
+            "reached": {},
+        }
+        outcome.update(_failure_fields(exc))
+        _append_outcome_keeping_error(audit, outcome)
+        raise
 
 
 def _checked(config: CellConfig, plan: PickPlan, arm: RobotArm) -> list[CheckResult]:

@@ -79,3 +79,31 @@ def test_a_protective_stop_is_left_for_the_operator(
     assert kinds[:2] == ["moveL", "moveL"]
     assert set(kinds[2:]) <= {"stopL"}
     assert audit_records(tmp_path)[-1]["error"]["safety_mode"] == SafetyMode.PROTECTIVE_STOP
+
+
+def test_a_pick_that_cannot_connect_is_audited(tmp_path: Path, loopback_host: str) -> None:
+    # Nothing listens: exit 4, and the attempt is on disk although no session ever existed.
+    status, report = run_json(
+        write_config(tmp_path, loopback_host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 4, report
+    assert report["error_type"] == "RobotConnectionError"
+    (outcome,) = audit_records(tmp_path)
+    assert (outcome["event"], outcome["status"], outcome["step"]) == ("outcome", "fault", "connect")
+    assert outcome["pick_id"] == report["pick_id"]
+    assert outcome["error"]["type"] == "RobotConnectionError"
+
+
+def test_a_cell_refusing_the_control_program_is_audited(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # Local control: the controller refuses ur_rtde's program at connect; exit 3, on disk.
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, remote_control=False, instant=True)
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 3, report
+    assert "Remote Control" in report["error"]
+    (outcome,) = audit_records(tmp_path)
+    assert (outcome["status"], outcome["step"]) == ("refused", "connect")
+    assert ctl.commands == []

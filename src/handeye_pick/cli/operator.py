@@ -17,6 +17,7 @@ import argparse
 import math
 import sys
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -44,7 +45,14 @@ from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
 from handeye_pick.geometry import compose, rotation_angle_between
-from handeye_pick.pick import STEPS, PickPlan, chain_plan, run_pick, target_of
+from handeye_pick.pick import (
+    STEPS,
+    PickPlan,
+    chain_plan,
+    connect_audited,
+    run_pick,
+    target_of,
+)
 from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode, mode_name
@@ -355,7 +363,8 @@ def run_touch_test(args: argparse.Namespace) -> int:
             raise KeyboardInterrupt  # stdin closed: nobody confirmed, so do not descend
 
     try:
-        with _connect(config, progress) as arm:
+        connect = partial(_connect, config, progress)
+        with connect_audited(audit, connect, dry_run=False) as arm:
             result = run_pick(
                 touch_config,
                 calibration,

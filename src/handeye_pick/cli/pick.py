@@ -28,7 +28,14 @@ from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose
-from handeye_pick.pick import STEPS, PickPlan, PickResult, run_pick, target_of
+from handeye_pick.pick import (
+    STEPS,
+    PickPlan,
+    PickResult,
+    connect_audited,
+    run_pick,
+    target_of,
+)
 from handeye_pick.progress import Progress
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from handeye_pick.safety import PreflightRefusal
@@ -104,12 +111,15 @@ def _connect_and_pick(
     def keep_plan(plan: PickPlan) -> None:
         report.update(plan_fields(plan))
 
-    with progress.step(f"connecting to {config.robot.host}"):
-        arm = URRtdeArm(
-            config.robot.host,
-            with_io=config.robot.gripper is not None,
-            stop_decel_mps2=config.motion.stop_decel_mps2,
-        )
+    def connect() -> URRtdeArm:
+        with progress.step(f"connecting to {config.robot.host}"):
+            return URRtdeArm(
+                config.robot.host,
+                with_io=config.robot.gripper is not None,
+                stop_decel_mps2=config.motion.stop_decel_mps2,
+            )
+
+    arm = connect_audited(audit, connect, dry_run=args.dry_run)
     with arm:
         report["controller_version"] = arm.controller_version
         result = run_pick(
