@@ -1,15 +1,22 @@
-"""Helpers for the simulated-controller tests: a client script in a subprocess, a raw RTDE peek."""
+"""Helpers for the simulated-controller tests: a client script in a subprocess, a raw RTDE peek,
+poses compared as transforms, polling for a condition."""
 
 from __future__ import annotations
 
+import math
 import socket
 import struct
 import subprocess
 import sys
 import textwrap
+import time
+from collections.abc import Callable
 
 import numpy as np
 from scipy.spatial.transform import Rotation
+
+# ur5e joints (rad) with the tool pointing down, the arm's usual start in these tests.
+HOME_Q = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 
 
 def run_client(code: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:
@@ -46,3 +53,12 @@ def assert_same_pose(a: list[float] | tuple[float, ...], b: list[float] | tuple[
                      tol: float = 1e-6) -> None:
     """Poses equal as transforms (rotation vectors near pi may differ in sign)."""
     np.testing.assert_allclose(pose_matrix(a), pose_matrix(b), atol=tol)
+
+
+def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
+    """Poll ``condition`` until it holds; AssertionError after ``timeout_s``."""
+    deadline = time.monotonic() + timeout_s
+    while not condition():
+        if time.monotonic() > deadline:
+            raise AssertionError("condition not met within the timeout")
+        time.sleep(0.002)

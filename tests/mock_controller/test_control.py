@@ -17,9 +17,8 @@ import rtde_receive
 
 from mocks.ur_controller import SimulatedController
 from tests.conftest import start_sim_controller
-from tests.mock_controller.helpers import assert_same_pose, pose_matrix
+from tests.mock_controller.helpers import HOME_Q, assert_same_pose, pose_matrix, wait_for
 
-HOME_Q = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 # ur5e flange at HOME_Q (nominal DH), tool pointing down.
 HOME_FLANGE = [-0.4919, -0.1333, 0.4879, math.pi / math.sqrt(2), math.pi / math.sqrt(2), 0.0]
 
@@ -31,33 +30,11 @@ def ctl() -> Iterator[SimulatedController]:
     controller.stop()
 
 
-@pytest.fixture(scope="module")
-def receive(ctl: SimulatedController) -> Iterator[rtde_receive.RTDEReceiveInterface]:
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    yield r
-    r.disconnect()
-
-
-@pytest.fixture(scope="module")
-def control(ctl: SimulatedController) -> Iterator[rtde_control.RTDEControlInterface]:
-    c = rtde_control.RTDEControlInterface(ctl.host)
-    yield c
-    c.disconnect()
-
-
 @pytest.fixture
 def at_home(control: rtde_control.RTDEControlInterface) -> None:
     """The arm at HOME_Q with no TCP offset."""
     assert control.setTcp([0.0] * 6)
     assert control.moveJ(HOME_Q)
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not met within the timeout")
-        time.sleep(0.005)
 
 
 def test_upload_starts_the_program(ctl: SimulatedController,

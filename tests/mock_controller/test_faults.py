@@ -19,16 +19,9 @@ import rtde_control
 import rtde_receive
 
 from mocks.ur_controller import SimulatedController
+from tests.mock_controller.helpers import wait_for
 
 Factory = Callable[..., SimulatedController]
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not met within the timeout")
-        time.sleep(0.005)
 
 
 def dashboard(host: str) -> dashboard_client.DashboardClient:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable
 
 import pytest
@@ -10,14 +9,7 @@ import rtde_io
 import rtde_receive
 
 from mocks.ur_controller import SimulatedController
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not met within the timeout")
-        time.sleep(0.005)
+from tests.mock_controller.helpers import wait_for
 
 
 @pytest.mark.timeout(60)

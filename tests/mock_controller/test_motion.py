@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Iterator
 
 import numpy as np
 import pytest
@@ -15,9 +15,7 @@ import rtde_receive
 
 from mocks.ur_controller import SimulatedController
 from tests.conftest import start_sim_controller
-from tests.mock_controller.helpers import assert_same_pose
-
-HOME_Q = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
+from tests.mock_controller.helpers import HOME_Q, assert_same_pose, wait_for
 
 
 @pytest.fixture(scope="module")
@@ -27,34 +25,12 @@ def ctl() -> Iterator[SimulatedController]:
     controller.stop()
 
 
-@pytest.fixture(scope="module")
-def receive(ctl: SimulatedController) -> Iterator[rtde_receive.RTDEReceiveInterface]:
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    yield r
-    r.disconnect()
-
-
-@pytest.fixture(scope="module")
-def control(ctl: SimulatedController) -> Iterator[rtde_control.RTDEControlInterface]:
-    c = rtde_control.RTDEControlInterface(ctl.host)
-    yield c
-    c.disconnect()
-
-
 @pytest.fixture
 def running(ctl: SimulatedController, control: rtde_control.RTDEControlInterface) -> None:
     """The control script running (an earlier test may have stopped it)."""
     if not ctl.snapshot().program_running:
         assert control.reuploadScript()
         wait_for(control.isProgramRunning)
-
-
-def wait_for(condition: Callable[[], bool], timeout_s: float = 5.0) -> None:
-    deadline = time.monotonic() + timeout_s
-    while not condition():
-        if time.monotonic() > deadline:
-            raise AssertionError("condition not met within the timeout")
-        time.sleep(0.002)
 
 
 def test_async_movel_reports_progress_and_follows_a_straight_line(

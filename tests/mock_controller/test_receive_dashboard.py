@@ -28,13 +28,6 @@ def ctl() -> Iterator[SimulatedController]:
     controller.stop()
 
 
-@pytest.fixture(scope="module")
-def receive(ctl: SimulatedController) -> Iterator[rtde_receive.RTDEReceiveInterface]:
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    yield r
-    r.disconnect()
-
-
 def test_default_variables_match_the_controller_state(
     ctl: SimulatedController, receive: rtde_receive.RTDEReceiveInterface
 ) -> None:

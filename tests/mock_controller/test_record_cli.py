@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import math
 import signal
 import subprocess
 import sys
@@ -18,9 +17,9 @@ from mocks.ur_controller import SimulatedController
 from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN
 from mocks.ur_controller.faults import FaultSpec, parse_fault
 from tests.conftest import next_loopback_host
+from tests.mock_controller.helpers import HOME_Q
 
 REPO_ROOT = Path(__file__).resolve().parents[2]
-HOME_Q = [0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0]
 
 
 def test_record_file_holds_exactly_the_commands(
