@@ -26,24 +26,15 @@ import rtde_control
 import rtde_receive
 
 from mocks.ur_controller import SimulatedController
+from mocks.ur_controller.net import recv_exactly
 
 HOME_Q = [0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0]
 NAMES = "timestamp,actual_q,actual_TCP_pose,runtime_state,robot_status_bits,safety_status_bits,"
 
 
-def _read_exactly(sock: socket.socket, size: int) -> bytes:
-    data = bytearray()
-    while len(data) < size:
-        chunk = sock.recv(size - len(data))
-        if not chunk:
-            raise ConnectionError("stream closed")
-        data += chunk
-    return bytes(data)
-
-
 def _read_package(sock: socket.socket) -> tuple[int, bytes]:
-    size, kind = struct.unpack(">HB", _read_exactly(sock, 3))
-    return kind, _read_exactly(sock, size - 3)
+    size, kind = struct.unpack(">HB", recv_exactly(sock, 3))
+    return kind, recv_exactly(sock, size - 3)
 
 
 def record_arrivals(host: str, stop: threading.Event, arrivals: list[float]) -> None:
