@@ -11,7 +11,8 @@ import sys
 import textwrap
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 
 import dashboard_client
 import pytest
@@ -30,6 +31,23 @@ def dashboard(host: str) -> dashboard_client.DashboardClient:
     return d
 
 
+@contextmanager
+def clients(host: str) -> Iterator[
+    tuple[rtde_control.RTDEControlInterface, rtde_receive.RTDEReceiveInterface,
+          dashboard_client.DashboardClient]
+]:
+    """Control, receive and dashboard clients on `host`, disconnected on exit."""
+    c = rtde_control.RTDEControlInterface(host)
+    r = rtde_receive.RTDEReceiveInterface(host)
+    d = dashboard(host)
+    try:
+        yield c, r, d
+    finally:
+        d.disconnect()
+        r.disconnect()
+        c.disconnect()
+
+
 def shifted(pose: list[float], dz: float) -> list[float]:
     moved = list(pose)
     moved[2] += dz
@@ -38,10 +56,7 @@ def shifted(pose: list[float], dz: float) -> list[float]:
 
 def test_protective_stop_during_a_move(sim_controller: Factory) -> None:
     ctl = sim_controller(inject=("protective-stop@move:1:0.5",))
-    c = rtde_control.RTDEControlInterface(ctl.host)
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    d = dashboard(ctl.host)
-    try:
+    with clients(ctl.host) as (c, r, d):
         start = r.getActualTCPPose()
         target = shifted(start, -0.1)
         assert not c.moveL(target, 0.25, 1.2)
@@ -59,10 +74,6 @@ def test_protective_stop_during_a_move(sim_controller: Factory) -> None:
         wait_for(lambda: not r.isProtectiveStopped())
         assert c.moveL(target, 0.25, 1.2)
         assert ctl.snapshot().tcp_pose[2] == pytest.approx(target[2], abs=1e-9)
-    finally:
-        d.disconnect()
-        r.disconnect()
-        c.disconnect()
 
 
 def test_trigger_protective_stop(sim_controller: Factory) -> None:
@@ -80,10 +91,7 @@ def test_trigger_protective_stop(sim_controller: Factory) -> None:
 
 def test_emergency_stop_and_recovery(sim_controller: Factory) -> None:
     ctl = sim_controller(instant=True)
-    c = rtde_control.RTDEControlInterface(ctl.host)
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    d = dashboard(ctl.host)
-    try:
+    with clients(ctl.host) as (c, r, d):
         ctl.inject("emergency-stop")
         wait_for(r.isEmergencyStopped)
         assert r.getSafetyMode() == 7
@@ -97,18 +105,11 @@ def test_emergency_stop_and_recovery(sim_controller: Factory) -> None:
         assert c.reuploadScript()
         wait_for(c.isProgramRunning)
         assert c.moveJ(list(r.getActualQ()))
-    finally:
-        d.disconnect()
-        r.disconnect()
-        c.disconnect()
 
 
 def test_safeguard_stop_pauses_the_program(sim_controller: Factory) -> None:
     ctl = sim_controller(instant=True)
-    c = rtde_control.RTDEControlInterface(ctl.host)
-    r = rtde_receive.RTDEReceiveInterface(ctl.host)
-    d = dashboard(ctl.host)
-    try:
+    with clients(ctl.host) as (c, r, d):
         ctl.inject("safeguard-stop@now")
         wait_for(lambda: r.getSafetyMode() == 5)
         assert r.getRuntimeState() == 4  # PAUSED
@@ -118,10 +119,6 @@ def test_safeguard_stop_pauses_the_program(sim_controller: Factory) -> None:
         d.play()
         wait_for(lambda: r.getRuntimeState() == 2 and r.getSafetyMode() == 1)
         assert c.moveL(shifted(r.getActualTCPPose(), -0.01))
-    finally:
-        d.disconnect()
-        r.disconnect()
-        c.disconnect()
 
 
 def test_program_stopped_from_the_pendant_mid_move(sim_controller: Factory) -> None:
