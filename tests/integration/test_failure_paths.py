@@ -107,3 +107,14 @@ def test_a_cell_refusing_the_control_program_is_audited(
     (outcome,) = audit_records(tmp_path)
     assert (outcome["status"], outcome["step"]) == ("refused", "connect")
     assert ctl.commands == []
+
+
+def test_the_flange_is_never_read_from_a_stalled_stream(sim_controller: SimFactory) -> None:
+    # Field note 4: a pose must come from a sample newer than the request. While the RTDE
+    # stream pauses, ur_rtde still answers with its last cached pose; that must not pass.
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with URRtdeArm(ctl.host) as arm:
+        arm.flange_pose()
+        ctl.inject("stall:1.5")
+        with pytest.raises(RobotConnectionError, match="no RTDE sample newer"):
+            arm.flange_pose()
