@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import json
 import subprocess
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from handeye_pick.calibration import load_hand_eye
 from handeye_pick.geometry import ur_pose_to_matrix
 from handeye_pick.plot import FIGURE_SIZE_PX
 from mocks.ur_controller import SimulatedController
+from tests.integration.test_pick_cli import CLI, audit_records
 
 SimFactory = Callable[..., SimulatedController]
 ROOT = Path(__file__).resolve().parents[2]
@@ -29,7 +29,6 @@ HAND_EYE = ROOT / "config" / "demo" / "hand_eye.yaml"  # eye-in-hand T_flange_ca
 TCP_OFFSET = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)
 GRASP_SPEED_MPS = 0.04
 POINT_CAM_MM = ("30", "-20", "380")
-CLI = [sys.executable, "-c", "import sys; from handeye_pick.cli import main; sys.exit(main())"]
 
 
 def write_config(
@@ -70,11 +69,6 @@ def expected_point_base_m(ctl: SimulatedController) -> np.ndarray:
     T_base_cam = ur_pose_to_matrix(list(ctl.snapshot().flange_pose)) @ T_flange_cam
     p_cam_m = np.array([float(v) for v in POINT_CAM_MM]) / 1000.0
     return np.asarray(T_base_cam[:3, :3] @ p_cam_m + T_base_cam[:3, 3])
-
-
-def audit_records(tmp_path: Path) -> list[dict[str, Any]]:
-    path = tmp_path / "picks.jsonl"
-    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
 # --- status -------------------------------------------------------------------------------------
