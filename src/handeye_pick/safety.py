@@ -235,6 +235,19 @@ def preflight(
 # --- is the cell ready to move? -----------------------------------------------------------------
 
 
+def tcp_offset_difference(
+    T_flange_tcp_actual: Transform, T_flange_tcp_configured: Transform
+) -> tuple[float, float]:
+    """How far the active TCP offset is from the configured one: (translation mm, rotation deg)."""
+    offset_mm = 1000.0 * float(
+        np.linalg.norm(T_flange_tcp_actual[:3, 3] - T_flange_tcp_configured[:3, 3])
+    )
+    offset_deg = math.degrees(
+        rotation_angle_between(T_flange_tcp_actual[:3, :3], T_flange_tcp_configured[:3, :3])
+    )
+    return offset_mm, offset_deg
+
+
 def cell_readiness_problems(
     status: RobotStatus,
     T_flange_tcp_actual: Transform,
@@ -290,12 +303,7 @@ def cell_readiness_problems(
             f"{mode_name(RuntimeState, status.runtime_state)}): stop any program running on the "
             "pendant and connect again"
         )
-    offset_mm = 1000.0 * float(
-        np.linalg.norm(T_flange_tcp_actual[:3, 3] - T_flange_tcp_configured[:3, 3])
-    )
-    offset_deg = math.degrees(
-        rotation_angle_between(T_flange_tcp_actual[:3, :3], T_flange_tcp_configured[:3, :3])
-    )
+    offset_mm, offset_deg = tcp_offset_difference(T_flange_tcp_actual, T_flange_tcp_configured)
     if offset_mm > tolerance_mm or offset_deg > tolerance_deg:
         actual = np.round(matrix_to_ur_pose(T_flange_tcp_actual), 4).tolist()
         configured = np.round(matrix_to_ur_pose(T_flange_tcp_configured), 4).tolist()

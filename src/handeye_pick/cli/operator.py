@@ -14,13 +14,10 @@ Robot poses are printed as UR vectors (m, rad); points in the base frame in mm.
 from __future__ import annotations
 
 import argparse
-import math
 import sys
 from dataclasses import replace
 from functools import partial
 from pathlib import Path
-
-import numpy as np
 
 from handeye_pick.audit import AuditLog
 from handeye_pick.cli import EXIT_REFUSED
@@ -44,7 +41,7 @@ from handeye_pick.cloudio import read_cloud
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
-from handeye_pick.geometry import compose, rotation_angle_between
+from handeye_pick.geometry import compose
 from handeye_pick.pick import (
     STEPS,
     PickPlan,
@@ -57,7 +54,7 @@ from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode, mode_name
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
-from handeye_pick.safety import cell_readiness_problems, workspace_problem
+from handeye_pick.safety import cell_readiness_problems, tcp_offset_difference, workspace_problem
 
 DEFAULT_STANDOFF_MM = 10.0
 
@@ -233,10 +230,7 @@ def run_status(args: argparse.Namespace) -> int:
         tolerance_mm=robot.tcp_offset_tolerance_mm,
         tolerance_deg=robot.tcp_offset_tolerance_deg,
     )
-    tcp_diff_mm = float(np.linalg.norm(T_flange_tcp[:3, 3] - robot.T_flange_tcp[:3, 3])) * 1000.0
-    tcp_diff_deg = math.degrees(
-        rotation_angle_between(T_flange_tcp[:3, :3], robot.T_flange_tcp[:3, :3])
-    )
+    tcp_diff_mm, tcp_diff_deg = tcp_offset_difference(T_flange_tcp, robot.T_flange_tcp)
     T_base_tcp = compose(T_base_flange, T_flange_tcp)
     outside = workspace_problem(T_base_tcp, config.workspace)
     report.update(
