@@ -162,6 +162,11 @@ def matrix_to_ur_pose(T: Transform) -> NDArray[np.float64]:
     return out
 
 
+def ur_pose_list(T: Transform) -> list[float]:
+    """``matrix_to_ur_pose`` as plain floats, for JSON and for ur_rtde calls (m, rad)."""
+    return [float(v) for v in matrix_to_ur_pose(T)]
+
+
 # --- orientation representations -----------------------------------------------------------------
 
 

@@ -28,8 +28,8 @@ from handeye_pick.errors import RobotError, RobotFault, SafetyRefusal
 from handeye_pick.geometry import (
     Transform,
     compose,
-    matrix_to_ur_pose,
     rotation_angle_between,
+    ur_pose_list,
 )
 from handeye_pick.grasp import PickTargets, backed_off, plan_targets
 from handeye_pick.progress import Progress
@@ -207,8 +207,8 @@ def run_pick(
             on_plan(plan)
         progress.say("planned: " + _describe_plan(plan))
         # Until the plan record is written, a refusal's outcome says what was refused.
-        outcome["flange_pose"] = _ur(plan.T_base_flange)
-        outcome["targets"] = {name: _ur(target_of(plan.targets, name)) for name in STEPS}
+        outcome["flange_pose"] = ur_pose_list(plan.T_base_flange)
+        outcome["targets"] = {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS}
         checks = _checked(config, plan, arm)
         progress.say(f"pre-flight: {len(checks)} checks passed")
         audit.append(_plan_record(config, calibration, detection, plan, checks, dry_run))
@@ -284,7 +284,7 @@ def _move(
             before_move(name)
         with progress.step(name) as report:
             reached[name] = arm.move_linear(T_to, speed, motion.accel_mps2, timeout, report)
-        reached_ur[name] = _ur(reached[name])
+        reached_ur[name] = ur_pose_list(reached[name])
         T_from = T_to
     del outcome["step"]
 
@@ -340,11 +340,11 @@ def _plan_record(
             "units": calibration.units,
             "inverted": calibration.inverted,
         },
-        "tcp_offset": _ur(plan.T_flange_tcp),
-        "flange_pose": _ur(plan.T_base_flange),
+        "tcp_offset": ur_pose_list(plan.T_flange_tcp),
+        "flange_pose": ur_pose_list(plan.T_base_flange),
         "T_base_cam": _matrix(plan.T_base_cam),
         "T_base_obj": _matrix(plan.T_base_obj),
-        "targets": {name: _ur(target_of(plan.targets, name)) for name in STEPS},
+        "targets": {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS},
         "motion": {
             "speed_mps": motion.speed_mps,
             "grasp_speed_mps": motion.grasp_speed_mps,
@@ -361,10 +361,6 @@ def _describe_plan(plan: PickPlan) -> str:
         f"object at [{obj_mm[0]:.1f}, {obj_mm[1]:.1f}, {obj_mm[2]:.1f}] mm in base, "
         f"grasp TCP at [{grasp_mm[0]:.1f}, {grasp_mm[1]:.1f}, {grasp_mm[2]:.1f}] mm"
     )
-
-
-def _ur(T: Transform) -> list[float]:
-    return [float(v) for v in matrix_to_ur_pose(T)]
 
 
 def _matrix(T: Transform) -> list[list[float]]:

@@ -16,7 +16,7 @@ from handeye_pick.cli.common import camera_point_mm_from_args
 from handeye_pick.config import CellConfig
 from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform, matrix_to_ur_pose
+from handeye_pick.geometry import ur_pose_list
 from handeye_pick.pick import STEPS, PickPlan, target_of
 from handeye_pick.progress import Progress
 
@@ -68,19 +68,14 @@ def progress_from_args(args: argparse.Namespace) -> Progress:
 def plan_fields(plan: PickPlan) -> dict[str, object]:
     """The plan for a JSON report: poses as UR vectors, ``T_base_cam`` as a 4x4 (m)."""
     return {
-        "flange_pose": ur_vector(plan.T_base_flange),
-        "tcp_offset": ur_vector(plan.T_flange_tcp),
-        "object_pose": ur_vector(plan.T_base_obj),
+        "flange_pose": ur_pose_list(plan.T_base_flange),
+        "tcp_offset": ur_pose_list(plan.T_flange_tcp),
+        "object_pose": ur_pose_list(plan.T_base_obj),
         "T_base_cam": plan.T_base_cam.tolist(),
-        "targets": {name: ur_vector(target_of(plan.targets, name)) for name in STEPS},
+        "targets": {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS},
     }
 
 
 def print_json(report: dict[str, object]) -> None:
     """Print one JSON object on stdout."""
     print(json.dumps(report, indent=2), flush=True)
-
-
-def ur_vector(T: Transform) -> list[float]:
-    """``T`` as a UR pose vector [x, y, z, rx, ry, rz] (m, rad) of plain floats."""
-    return [float(v) for v in matrix_to_ur_pose(T)]

@@ -29,7 +29,6 @@ from handeye_pick.cli.cell import (
     plan_fields,
     print_json,
     progress_from_args,
-    ur_vector,
 )
 from handeye_pick.cli.common import (
     add_camera_point_args,
@@ -41,7 +40,7 @@ from handeye_pick.cloudio import read_cloud
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
-from handeye_pick.geometry import compose
+from handeye_pick.geometry import compose, ur_pose_list
 from handeye_pick.pick import (
     STEPS,
     PickPlan,
@@ -241,13 +240,13 @@ def run_status(args: argparse.Namespace) -> int:
         safety_mode=mode_name(SafetyMode, status.safety_mode),
         runtime_state=mode_name(RuntimeState, status.runtime_state),
         remote_control=status.remote_control,
-        tcp_offset=ur_vector(T_flange_tcp),
-        tcp_offset_configured=ur_vector(robot.T_flange_tcp),
+        tcp_offset=ur_pose_list(T_flange_tcp),
+        tcp_offset_configured=ur_pose_list(robot.T_flange_tcp),
         tcp_offset_matches=tcp_diff_mm <= robot.tcp_offset_tolerance_mm
         and tcp_diff_deg <= robot.tcp_offset_tolerance_deg,
         tcp_offset_difference={"mm": tcp_diff_mm, "deg": tcp_diff_deg},
-        flange_pose=ur_vector(T_base_flange),
-        tcp_pose=ur_vector(T_base_tcp),
+        flange_pose=ur_pose_list(T_base_flange),
+        tcp_pose=ur_pose_list(T_base_tcp),
         hand_eye_mode=calibration.mode.value,
         calibration_file=str(calibration.path),
         T_base_cam=calibration.T_base_cam(T_base_flange).tolist(),
@@ -377,7 +376,7 @@ def run_touch_test(args: argparse.Namespace) -> int:
             print_json(report)
         raise
     errors = result.errors()
-    report["reached"] = {name: ur_vector(T) for name, T in result.reached.items()}
+    report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
     if args.json:
         report["status"] = "done"
         report["standoff_error_mm"] = errors["grasp"].position_mm
@@ -401,4 +400,4 @@ def _plan_lines(plan: PickPlan) -> list[str]:
         ("object", plan.T_base_obj),
     ]
     rows += [(name, target_of(plan.targets, name)) for name in STEPS]
-    return [f"  {label:<12} {_show(ur_vector(T))}" for label, T in rows]
+    return [f"  {label:<12} {_show(ur_pose_list(T))}" for label, T in rows]

@@ -21,13 +21,12 @@ from handeye_pick.cli.cell import (
     plan_fields,
     print_json,
     progress_from_args,
-    ur_vector,
 )
 from handeye_pick.cli.common import add_camera_point_args
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
-from handeye_pick.geometry import Transform, matrix_to_ur_pose
+from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 from handeye_pick.pick import (
     STEPS,
     PickPlan,
@@ -132,7 +131,7 @@ def _connect_and_pick(
             progress=progress,
             on_plan=keep_plan,
         )
-    report["reached"] = {name: ur_vector(T) for name, T in result.reached.items()}
+    report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
     return result
 
 

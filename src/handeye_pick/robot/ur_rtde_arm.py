@@ -31,8 +31,8 @@ from handeye_pick.errors import RobotConnectionError, RobotError, RobotFault, Sa
 from handeye_pick.geometry import (
     Transform,
     invert,
-    matrix_to_ur_pose,
     rotation_angle_between,
+    ur_pose_list,
     ur_pose_to_matrix,
 )
 from handeye_pick.robot.port import (
@@ -120,10 +120,6 @@ def _log_lines(stream: IO[bytes] | None, host: str) -> None:
         return
     for raw in stream:
         log.debug("ur_rtde %s: %s", host, raw.decode(errors="replace").rstrip())
-
-
-def _to_ur_list(T: Transform) -> list[float]:
-    return [float(v) for v in matrix_to_ur_pose(T)]
 
 
 def _fmt_pose(pose: list[float]) -> str:
@@ -260,10 +256,10 @@ class URRtdeArm:
         return self.tcp_pose() @ invert(self._T_flange_tcp)
 
     def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
-        return bool(self._call("is_pose_within_safety_limits", _to_ur_list(T_base_tcp)))
+        return bool(self._call("is_pose_within_safety_limits", ur_pose_list(T_base_tcp)))
 
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
-        return bool(self._call("has_ik_solution", _to_ur_list(T_base_tcp)))
+        return bool(self._call("has_ik_solution", ur_pose_list(T_base_tcp)))
 
     def move_linear(
         self,
@@ -282,7 +278,7 @@ class URRtdeArm:
         fresh dashboard connection and raises RobotConnectionError; Ctrl-C, or any other
         exception (a failing ``on_progress``), sends stopL and propagates.
         """
-        target = _to_ur_list(T_base_tcp)
+        target = ur_pose_list(T_base_tcp)
         try:
             start = self._sample("sample")
             self._check_motion_sample(start)  # never start a move on a broken link or stop
