@@ -36,6 +36,16 @@ LIMIT_TOLERANCE_RAD = 1e-6
 SINGULAR_WRIST_TOLERANCE = 1e-12
 """|sin q5| below this is a singular wrist: q6 is then free and chosen (see ``_singular_q6``)."""
 
+NEAR_SINGULAR_WRIST_TOLERANCE = 1e-5
+"""|sin q5| below this: q6 is only known to ~1e-16 / |sin q5| rad from the flange rotation.
+
+That error turns q6 about an axis nearly parallel to joint 4's, so the pose barely notices, but
+it moves the origin of frame 4 by d5 times it: enough to put a stretched or folded arm
+(sin q3 ~ 0) just out of reach and lose a valid solution. Below this the computed q6 is kept only
+when the arm reaches with it, else the nearest q6 that reaches is used (``_singular_q6``); the
+forward check in ``inverse_all`` still judges the result.
+"""
+
 _ROTATION_TOLERANCE = 1e-6
 _FULL_TURN = 2.0 * math.pi
 _E_SERIES_LIMIT_RAD = 2.0 * math.pi
@@ -246,6 +256,8 @@ def inverse_all(
                 q6 = math.atan2(
                     -wrist_sign * float(z1_in_flange[1]), wrist_sign * float(z1_in_flange[0])
                 )
+                if s5_abs < NEAR_SINGULAR_WRIST_TOLERANCE:
+                    q6 = _singular_q6(model, T, q1, q5, q6)
             wrist_rows.append([q1, q5, q6])
 
     candidates: list[list[float]] = []
