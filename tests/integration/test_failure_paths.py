@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from handeye_pick.errors import RobotConnectionError
+from handeye_pick.errors import RobotConnectionError, RobotFault
 from handeye_pick.geometry import Transform
 from handeye_pick.robot.port import RuntimeState, SafetyMode
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
@@ -118,3 +118,16 @@ def test_the_flange_is_never_read_from_a_stalled_stream(sim_controller: SimFacto
         ctl.inject("stall:1.5")
         with pytest.raises(RobotConnectionError, match="no RTDE sample newer"):
             arm.flange_pose()
+
+
+def test_a_move_that_ends_away_from_its_target_is_a_fault(sim_controller: SimFactory) -> None:
+    # The simulated controller always ends a move on target or with a state change, so the
+    # end-of-move check is driven directly with a real sample against a target 2 mm away.
+    ctl = sim_controller(instant=True)
+    with URRtdeArm(ctl.host) as arm:
+        sample = arm._sample("fresh_sample")
+        arm._check_reached(sample, _lowered(arm.tcp_pose(), 0.0005))  # within 1 mm: fine
+        with pytest.raises(RobotFault, match=r"ended 2\.0 mm") as caught:
+            arm._check_reached(sample, _lowered(arm.tcp_pose(), 0.002))
+    assert caught.value.safety_mode == SafetyMode.NORMAL
+    assert caught.value.runtime_state == RuntimeState.PLAYING
