@@ -13,7 +13,7 @@ import pytest
 
 from handeye_pick.errors import RobotConnectionError, RobotFault
 from handeye_pick.geometry import Transform
-from handeye_pick.robot.port import RuntimeState, SafetyMode
+from handeye_pick.robot.port import OutputBank, RuntimeState, SafetyMode
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
 from tests.integration.test_pick_cli import (
@@ -131,3 +131,22 @@ def test_a_move_that_ends_away_from_its_target_is_a_fault(sim_controller: SimFac
             arm._check_reached(sample, _lowered(arm.tcp_pose(), 0.002))
     assert caught.value.safety_mode == SafetyMode.NORMAL
     assert caught.value.runtime_state == RuntimeState.PLAYING
+
+
+@pytest.mark.parametrize(
+    ("bank", "field"),
+    [(OutputBank.TOOL, "tool_digital_out"), (OutputBank.STANDARD, "standard_digital_out")],
+)
+def test_a_gripper_output_is_confirmed_by_the_controller(
+    sim_controller: SimFactory, bank: OutputBank, field: str
+) -> None:
+    # ur_rtde's IO setters return True once the package is written (ur_rtde_protocol.md 7):
+    # True says nothing. The output counts as set when the controller's data shows it, and an
+    # output that cannot be confirmed (the RTDE stream stalls) is an error, not a silent True.
+    ctl = sim_controller(instant=True)
+    with URRtdeArm(ctl.host, with_io=True) as arm:
+        arm.set_digital_output(bank, 1, True)
+        assert getattr(ctl.snapshot(), field) == 0b10  # applied before the call returned
+        ctl.inject("stall:1.5")
+        with pytest.raises(RobotConnectionError, match="no RTDE sample newer"):
+            arm.set_digital_output(bank, 1, False)

@@ -61,6 +61,11 @@ STOP_TIMEOUT_S = 2.0
 """stopL gets this long before the program is stopped through the dashboard instead."""
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
+OUTPUT_CONFIRM_TIMEOUT_S = 0.5
+"""ur_rtde's IO setters return once the package is written; the controller must show the new
+output value in its RTDE data within this time (250 cycles at 500 Hz)."""
+TOOL_OUTPUT_FIRST_BIT = 16
+"""Tool digital outputs start at bit 16 of ``actual_digital_output_bits``."""
 
 # Parts of ur_rtde's RuntimeError texts (1.6.5) and what to tell the operator instead.
 _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
@@ -313,14 +318,27 @@ class URRtdeArm:
                 self._stop_by_dashboard()
 
     def set_digital_output(self, bank: OutputBank, index: int, value: bool) -> None:
-        operation = (
-            "set_standard_digital_out" if bank is OutputBank.STANDARD else "set_tool_digital_out"
-        )
+        """Set one output and wait until the controller's RTDE data shows it (the setter itself
+        only says the request was written); RobotFault when it does not within
+        ``OUTPUT_CONFIRM_TIMEOUT_S``, RobotConnectionError when no fresh data comes."""
+        what = f"set {bank.value} digital output {index} to {value}"
+        if bank is OutputBank.STANDARD:
+            operation, bit = "set_standard_digital_out", index
+        else:
+            operation, bit = "set_tool_digital_out", TOOL_OUTPUT_FIRST_BIT + index
         if not self._call(operation, index, value):
-            raise self._fault(
-                f"set {bank.value} digital output {index} to {value} was refused",
-                self._sample("sample"),
-            )
+            raise self._fault(f"{what} was refused", self._sample("sample"))
+        deadline = time.monotonic() + OUTPUT_CONFIRM_TIMEOUT_S
+        while True:
+            sample = self._sample("fresh_sample")
+            if bool(sample.digital_output_bits >> bit & 1) == value:
+                return
+            if time.monotonic() > deadline:
+                raise self._fault(
+                    f"{what}: the controller still shows {not value} after "
+                    f"{OUTPUT_CONFIRM_TIMEOUT_S} s",
+                    sample,
+                )
 
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""

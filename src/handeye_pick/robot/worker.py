@@ -85,6 +85,7 @@ class Sample:
     receive_connected: bool
     control_connected: bool
     speed_scaling: float  # speed slider x controller speed scaling, 0..1
+    digital_output_bits: int  # standard outputs bits 0-7, configurable 8-15, tool 16-17
 
 
 class _Session:
@@ -156,6 +157,7 @@ class _Session:
             receive_connected=bool(r.isConnected()),
             control_connected=bool(c.isConnected()),
             speed_scaling=float(r.getSpeedScalingCombined()),
+            digital_output_bits=int(r.getActualDigitalOutputBits()),
         )
 
     def fresh_sample(self) -> Sample:
