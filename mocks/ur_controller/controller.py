@@ -27,12 +27,12 @@ from mocks.ur_controller.dashboard import DashboardServer
 from mocks.ur_controller.faults import FaultSpec, parse_fault
 from mocks.ur_controller.program import ControlScript, Registers
 from mocks.ur_controller.record import CommandRecord
-from mocks.ur_controller.rtde import OUTPUT_TYPES, RtdeServer
+from mocks.ur_controller.rtde import CYCLE_HZ, OUTPUT_TYPES, RtdeServer
 from mocks.ur_controller.script_port import ScriptPort, register_offsets
 
 log = logging.getLogger("mocks.ur_controller")
 
-CYCLE_S = 0.002  # e-Series control cycle, 500 Hz
+CYCLE_S = 1.0 / CYCLE_HZ  # e-Series control cycle, 2 ms
 EXIT_CANNOT_LISTEN = 3  # command-line exit status: a port is taken or the address is not local
 
 ROBOT_MODE_POWER_OFF = 3
@@ -415,6 +415,7 @@ class Controller:
                     self._cycle(now_s - last_s, now_s - self._start_s)
                 except Exception:
                     log.exception("control loop cycle failed")
+            self._rtde.cycle_done()  # the cycle's RTDE package goes out now, as on a real UR
             last_s = now_s
 
     def _cycle(self, dt_s: float, time_s: float) -> None:

@@ -2,8 +2,8 @@
 
 Wire format (ur_rtde_protocol.md section 2): every package is `uint16 size` (big-endian, header
 included) + `uint8 type` + payload. Setup requests (V, v, O, I, S, P) get exactly one reply each,
-at once. After S a sender thread streams the output recipe at the requested frequency from the
-controller's latest published outputs.
+at once. After S a sender thread streams the output recipe at the requested frequency: like a
+real controller's, each data package leaves right after the control cycle that produced it.
 """
 
 from __future__ import annotations
@@ -12,7 +12,6 @@ import logging
 import socket
 import struct
 import threading
-import time
 from collections.abc import Mapping, Sequence
 from typing import Protocol
 
@@ -24,6 +23,10 @@ RTDE_PORT = 30004
 # PolyScope 5.15: 500 Hz, payload and F/T fields, the classic 13-name control recipe.
 POLYSCOPE_VERSION = (5, 15, 0, 1234)
 DEFAULT_FREQUENCY_HZ = 500.0
+CYCLE_HZ = 500.0  # e-Series control loop rate; a sender sends after every Nth cycle
+STREAM_FALLBACK_S = 0.1
+"""A sender that sees no control cycle this long after one was due sends the latest outputs
+anyway: a starved control loop slows the stream but never pauses it towards ur_rtde's 2.5 s."""
 
 _FORMATS = {
     "BOOL": "?",
@@ -170,6 +173,8 @@ class RtdeServer:
         self._backend = backend
         self._claims: dict[str, _Connection] = {}
         self._claims_lock = threading.Lock()
+        self._cycle = 0  # control cycles published so far
+        self._cycle_done = threading.Condition()
         self.listener = Listener(host, RTDE_PORT, "rtde", self._serve)
 
     def _serve(self, sock: socket.socket) -> None:
@@ -184,6 +189,8 @@ class RtdeServer:
             pass  # client disconnected, or drop_clients() closed the socket
         finally:
             conn.closed.set()
+            with self._cycle_done:
+                self._cycle_done.notify_all()  # its sender returns now, not at the next cycle
             with self._claims_lock:
                 for name in [n for n, owner in self._claims.items() if owner is conn]:
                     del self._claims[name]
@@ -280,16 +287,37 @@ class RtdeServer:
             index += count
         self._backend.write_inputs(fields)
 
+    def cycle_done(self) -> None:
+        """Wake the senders: called by the control loop right after each cycle's publish.
+
+        Only notifies; the senders send on their own threads, so a slow client socket never
+        holds up the control loop.
+        """
+        with self._cycle_done:
+            self._cycle += 1
+            self._cycle_done.notify_all()
+
+    def _wait_for_cycle(self, conn: _Connection, due: int, timeout_s: float) -> int:
+        """Wait until control cycle ``due`` is published, the connection closes or ``timeout_s``
+        passes; returns the number of the latest published cycle."""
+        with self._cycle_done:
+            self._cycle_done.wait_for(
+                lambda: self._cycle >= due or conn.closed.is_set(), timeout=timeout_s
+            )
+            return self._cycle
+
     def _stream(self, conn: _Connection) -> None:
-        """Send the output recipe at the requested rate until the connection closes."""
-        period_s = 1.0 / conn.frequency_hz
-        next_s = time.monotonic()
+        """Send the output recipe after every Nth control cycle until the connection closes.
+
+        N = CYCLE_HZ / requested frequency, rounded, at least 1: a 500 Hz client gets every
+        cycle, a 125 Hz one every 4th.
+        """
+        every = max(1, round(CYCLE_HZ / conn.frequency_hz))
+        timeout_s = every / CYCLE_HZ + STREAM_FALLBACK_S
+        cycle = self._cycle
         while not conn.closed.is_set():
-            next_s += period_s
-            delay_s = next_s - time.monotonic()
-            if delay_s < -0.1:
-                next_s = time.monotonic()  # fell far behind (machine busy): resync, no burst
-            elif delay_s > 0 and conn.closed.wait(delay_s):
+            cycle = self._wait_for_cycle(conn, (cycle // every + 1) * every, timeout_s)
+            if conn.closed.is_set():
                 return
             recipe = conn.output
             if recipe is None or not conn.streaming.is_set() or self._backend.stream_stalled():
