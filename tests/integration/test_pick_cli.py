@@ -375,7 +375,7 @@ def test_ctrl_c_during_a_slow_move(sim_controller: SimFactory, tmp_path: Path) -
         if pick.poll() is None:
             pick.kill()
     assert pick.returncode == 130, rest
-    assert [c["kind"] for c in ctl.commands] == ["moveL", "stopL"]
+    assert [c["kind"] for c in ctl.commands] == ["moveL", "stopL"], rest
     assert not ctl.snapshot().moving
     _, outcome = audit_records(tmp_path)
     assert outcome["status"] == "interrupted"

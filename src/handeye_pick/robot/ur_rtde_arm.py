@@ -13,13 +13,16 @@ the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
+import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Iterator
 from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
@@ -103,6 +106,27 @@ _STOP_ADVICE: dict[int, str] = {
     "reset it, then power on and release the brakes",
     SafetyMode.SAFEGUARD_STOP: "a safeguard stop is active: close and reset the safeguard",
 }
+
+
+@contextlib.contextmanager
+def _ctrl_c_held() -> Iterator[None]:
+    """Hold Ctrl-C while one message crosses the pipe to the ur_rtde process.
+
+    A KeyboardInterrupt between the bytes of a message would desynchronise the pipe, and the
+    stopL that the interrupt is about to send would be lost. The held signal is delivered as soon
+    as the message is through (a few microseconds). Only the main thread receives signals.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    held: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: held.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+        if held and callable(previous):
+            previous(signal.SIGINT, None)
 
 
 def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
@@ -457,7 +481,8 @@ class URRtdeArm:
             self._pending_reply = False
             self._receive(operation, timeout_s)
         try:
-            self._conn.send((operation, args))
+            with _ctrl_c_held():
+                self._conn.send((operation, args))
         except OSError as exc:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
@@ -485,7 +510,8 @@ class URRtdeArm:
                 break
         else:
             try:
-                message = self._conn.recv()
+                with _ctrl_c_held():
+                    message = self._conn.recv()
             except (EOFError, OSError):
                 self._dead_reason = "the ur_rtde process closed its pipe (it probably crashed)"
             else:
