@@ -71,3 +71,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    except Exception as exc:
+        # A bug, not a known failure: a defined status and one line, the traceback in the log
+        # (stderr shows it too unless --quiet). Robot code has already stopped the arm.
+        log.exception("internal error")
+        print(
+            f"internal error: {type(exc).__name__}: {exc} (a defect in handeye-pick; please "
+            "report it with the --log-file output)",
+            file=sys.stderr,
+        )
+        return EXIT_INTERNAL
