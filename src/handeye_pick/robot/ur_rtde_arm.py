@@ -231,7 +231,7 @@ class URRtdeArm:
             raise RobotConnectionError(f"connect to {host}: unexpected first message {value!r}")
         self.controller_version = str(value)
         try:
-            self._T_flange_tcp = self.tcp_offset()
+            self.tcp_offset()
         except BaseException:
             self.close()
             raise
@@ -267,11 +267,14 @@ class URRtdeArm:
         )
 
     def tcp_offset(self) -> Transform:
-        """``T_flange_tcp`` (m) asked from the controller now (``getTCPOffset``)."""
+        """``T_flange_tcp`` (m) asked from the controller now (``getTCPOffset``); later flange
+        poses use this value, so the offset a pick checks is the offset its flange pose uses."""
         pose = self._call("tcp_offset")
         if not isinstance(pose, list) or len(pose) != 6:
             raise RobotFault(f"getTCPOffset on {self.host}: expected 6 numbers, got {pose!r}")
-        return ur_pose_to_matrix(pose)
+        T_flange_tcp = ur_pose_to_matrix(pose)
+        self._T_flange_tcp: Transform = T_flange_tcp.copy()  # callers may modify what they get
+        return T_flange_tcp
 
     def tcp_pose(self) -> Transform:
         """``T_base_tcp`` (m) from ``actual_TCP_pose`` of an RTDE sample newer than this call."""
@@ -280,7 +283,8 @@ class URRtdeArm:
     def flange_pose(self) -> Transform:
         """``T_base_flange`` (m) = fresh ``T_base_tcp`` @ inv(``T_flange_tcp``).
 
-        ``T_flange_tcp`` is the offset read at connect; the pick verifies it against the config.
+        ``T_flange_tcp`` is the offset last read by ``tcp_offset()`` (at connect, and by every
+        pick before its flange pose); the pick verifies it against the config.
         """
         return self.tcp_pose() @ invert(self._T_flange_tcp)
 
