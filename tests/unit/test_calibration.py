@@ -153,50 +153,48 @@ def test_opencv_file_is_read_without_opencv(tmp_path: Path, directive: str, dt: 
     np.testing.assert_allclose(read_transform_file(path, "mm"), EYE_IN_HAND_M, atol=1e-15)
 
 
-# A real file, from zivid/zivid-python-samples (eyeInHandTransform.yaml, legacy OpenCV format):
-# the exact layout OpenCV's FileStorage writes. Numbers embedded as data.
-ZIVID_LEGACY_SAMPLE = """%YAML:1.0
+# The exact layout OpenCV's FileStorage writes (as older Zivid tools did): a directive line, a
+# document marker, a tagged node, 3-space indent, doubles in %.16e wrapped two per line, and
+# "0." style zeros. Made-up numbers.
+LEGACY_OPENCV_LAYOUT = """%YAML:1.0
 ---
 PoseState: !!opencv-matrix
    rows: 4
    cols: 4
    dt: d
-   data: [ -1.5264396128781721e-02, -9.9931502710899889e-01,
-       3.3711641979652332e-02, -2.6883979772720501e+01,
-       -9.6547816982475132e-01, 5.9624835250398078e-03,
-       -2.6041572990520806e-01, 6.6908638315497171e+01,
-       2.6003634707992701e-01, -3.6522943259740939e-02,
-       -9.6490785716200556e-01, -3.3392492437121042e+01, 0., 0., 0., 1. ]
+   data: [ -6.4359005269386413e-02, 9.8714838162626339e-01,
+       1.4627368558077578e-01, -3.1250000000000000e+01,
+       9.9523569315123983e-01, 5.2734813364959561e-02,
+       8.2005820141826696e-02, 5.8399999999999999e+01,
+       7.3238197127631688e-02, 1.5085460586939811e-01,
+       -9.8583926396217458e-01, 4.7899999999999999e+01, 0., 0., 0., 1. ]
 """
 
-# From the same repository (robotTransform.yaml): a hand-typed pose with a 4-decimal rotation,
-# 7e-5 away from orthonormal; the 1e-5 tolerance refuses it rather than guess a repair.
-ZIVID_LEGACY_ROBOT_SAMPLE = """%YAML:1.0
+# A hand-typed pose with its rotation rounded to 4 decimals (9e-5 away from orthonormal): the
+# 1e-5 tolerance refuses it rather than guess a repair. Made-up numbers.
+ROUNDED_ROBOT_POSE = """%YAML:1.0
 ---
 PoseState: !!opencv-matrix
    rows: 4
    cols: 4
    dt: d
-   data: [ 9.9670000000000003e-01, -4.0399999999999998e-02,
-       6.9900000000000004e-02, 5.6950000000000000e+02,
-       2.0799999999999999e-02, 9.6519999999999995e-01,
-       2.6060000000000000e-01, 3.1769999999999999e+02,
-       -7.8000000000000000e-02, -2.5829999999999997e-01,
-       9.6289999999999998e-01, 5.6929999999999995e+02, 0., 0., 0., 1. ]
+   data: [ 0.9871, -0.1497, -0.0575, 512.5,
+       0.1335, 0.9657, -0.2227, 104.2,
+       0.0889, 0.2122, 0.9732, 433.0, 0., 0., 0., 1. ]
 """
 
 
-def test_real_legacy_zivid_sample_is_read(tmp_path: Path) -> None:
-    path = write(tmp_path / "eyeInHandTransform.yaml", ZIVID_LEGACY_SAMPLE)
+def test_opencv_file_storage_layout_is_read(tmp_path: Path) -> None:
+    path = write(tmp_path / "eyeInHandTransform.yaml", LEGACY_OPENCV_LAYOUT)
     calibration = load_hand_eye(path, HandEyeMode.EYE_IN_HAND)
+    np.testing.assert_allclose(calibration.T_cal[:3, 3], [-0.03125, 0.0584, 0.0479])
     np.testing.assert_allclose(
-        calibration.T_cal[:3, 3],
-        [-0.026883979772720501, 0.066908638315497171, -0.033392492437121042],
+        calibration.T_cal[0, :3], [-0.064359005269386413, 0.98714838162626339, 0.14627368558077578]
     )
 
 
-def test_real_legacy_robot_sample_with_rounded_rotation_is_refused(tmp_path: Path) -> None:
-    path = write(tmp_path / "robotTransform.yaml", ZIVID_LEGACY_ROBOT_SAMPLE)
+def test_robot_pose_with_rounded_rotation_is_refused(tmp_path: Path) -> None:
+    path = write(tmp_path / "robotTransform.yaml", ROUNDED_ROBOT_POSE)
     with pytest.raises(TransformError, match=r"robotTransform.yaml: rotation is not orthonormal"):
         read_robot_pose_file(path)
 
