@@ -262,7 +262,7 @@ def _move(
 ) -> None:
     """The three moves and the gripper; ``reached`` and ``outcome`` are filled as they happen."""
     motion, gripper = config.motion, config.robot.gripper
-    T_from = compose(plan.T_base_flange, plan.T_flange_tcp)
+    T_base_tcp_from = compose(plan.T_base_flange, plan.T_flange_tcp)  # TCP where the plan was read
     reached_ur: dict[str, list[float]] = {}
     outcome["reached"] = reached_ur
     for name in STEPS:
@@ -272,20 +272,24 @@ def _move(
                 arm.set_digital_output(gripper.bank, gripper.index, gripper.close_value)
                 time.sleep(gripper.settle_s)
         outcome["step"] = name
-        T_to = target_of(plan.targets, name)
-        speed, cap = (
+        T_base_tcp_to = target_of(plan.targets, name)
+        speed_mps, cap_mps = (
             (motion.grasp_speed_mps, MAX_GRASP_SPEED_MPS)
             if name == "grasp"
             else (motion.speed_mps, MAX_SPEED_MPS)
         )
-        check_motion_command(speed, motion.accel_mps2, max_speed_mps=cap)
-        timeout = move_timeout_s(T_from, T_to, speed, motion.accel_mps2, motion.timeout_margin_s)
+        check_motion_command(speed_mps, motion.accel_mps2, max_speed_mps=cap_mps)
+        timeout_s = move_timeout_s(
+            T_base_tcp_from, T_base_tcp_to, speed_mps, motion.accel_mps2, motion.timeout_margin_s
+        )
         if before_move is not None:
             before_move(name)
         with progress.step(name) as report:
-            reached[name] = arm.move_linear(T_to, speed, motion.accel_mps2, timeout, report)
+            reached[name] = arm.move_linear(
+                T_base_tcp_to, speed_mps, motion.accel_mps2, timeout_s, report
+            )
         reached_ur[name] = ur_pose_list(reached[name])
-        T_from = T_to
+        T_base_tcp_from = T_base_tcp_to
     del outcome["step"]
 
 
