@@ -24,13 +24,13 @@ from numpy.typing import NDArray
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
-from handeye_pick.robot.port import OutputBank
-from handeye_pick.safety import (
+from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
     MAX_GRASP_SPEED_MPS,
     MAX_SPEED_MPS,
     stop_decel_problem,
 )
+from handeye_pick.robot.port import OutputBank
 
 # Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
 # real cell uses, so it only fires on a mistake.

@@ -32,11 +32,10 @@ from handeye_pick.geometry import (
     ur_pose_list,
 )
 from handeye_pick.grasp import PickTargets, backed_off, plan_targets
+from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
-    MAX_GRASP_SPEED_MPS,
-    MAX_SPEED_MPS,
     CheckResult,
     PreflightRefusal,
     cell_readiness_problems,

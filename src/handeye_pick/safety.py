@@ -13,12 +13,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from handeye_pick.config import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.limits import (
+    MAX_ACCEL_MPS2,
+    MAX_GRASP_SPEED_MPS,
+    MAX_SPEED_MPS,
+    UR_MAX_SPEED_MPS,
+    stop_decel_problem,
+)
 from handeye_pick.robot.port import (
     RobotArm,
     RobotMode,
@@ -27,19 +34,6 @@ from handeye_pick.robot.port import (
     SafetyMode,
     mode_name,
 )
-
-if TYPE_CHECKING:  # config imports the caps below; the types are only needed for annotations
-    from handeye_pick.config import MotionConfig, WorkspaceConfig
-
-# ur_rtde refuses a moveL/stopL outside these (its own argument check).
-UR_MAX_SPEED_MPS = 3.0
-UR_MAX_ACCEL_MPS2 = 150.0
-
-# Stricter caps for a camera-guided pick: the target is only as good as the calibration and the
-# detection, so the arm moves slowly enough for an operator to hit the stop in time.
-MAX_SPEED_MPS = 1.0  # approach and retreat moves
-MAX_GRASP_SPEED_MPS = 0.25  # the final move onto the object (UR's default moveL speed)
-MAX_ACCEL_MPS2 = 4.0  # every move; UR's default moveL acceleration is 1.2 m/s^2
 
 
 @dataclass(frozen=True)
@@ -100,17 +94,6 @@ def check_motion_command(
     problems = motion_problems(speed_mps, accel_mps2, max_speed_mps)
     if problems:
         raise SafetyRefusal(f"motion command refused, nothing sent: {'; '.join(problems)}")
-
-
-def stop_decel_problem(stop_decel_mps2: float, accel_mps2: float) -> str | None:
-    """None when the stopL deceleration is at least the moves' acceleration and within ur_rtde's
-    limit: stopping after a fault must never be gentler than starting."""
-    if accel_mps2 <= stop_decel_mps2 <= UR_MAX_ACCEL_MPS2:
-        return None
-    return (
-        f"stop deceleration {stop_decel_mps2:g} m/s^2 outside [{accel_mps2:g} (the move "
-        f"acceleration), {UR_MAX_ACCEL_MPS2:g}] m/s^2"
-    )
 
 
 def _motion_checks(speeds: MotionConfig) -> list[CheckResult]:

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from handeye_pick.config import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import RobotFault, SafetyRefusal
 from handeye_pick.geometry import Transform, make_transform, rotation_from_euler
+from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.robot.port import (
     OutputBank,
     ProgressCallback,
@@ -22,8 +23,6 @@ from handeye_pick.robot.port import (
     SafetyMode,
 )
 from handeye_pick.safety import (
-    MAX_GRASP_SPEED_MPS,
-    MAX_SPEED_MPS,
     CheckResult,
     PreflightRefusal,
     cell_readiness_problems,
