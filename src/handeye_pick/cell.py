@@ -176,6 +176,7 @@ def connect_ur_rtde(config: CellConfig) -> RobotArm:
         config.robot.host,
         with_io=config.robot.gripper is not None,
         stop_decel_mps2=config.motion.stop_decel_mps2,
+        watchdog_s=config.robot.watchdog_s,
     )
 
 

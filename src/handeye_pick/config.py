@@ -68,6 +68,7 @@ class RobotConfig:
     tcp_offset_tolerance_mm: float = 1.0  # accepted translation difference, controller vs config
     tcp_offset_tolerance_deg: float = 1.0  # accepted rotation difference, controller vs config
     gripper: GripperConfig | None = None  # None: the pick moves only, no output is switched
+    watchdog_s: float = 0.2  # the controller stops the program this long after the PC goes silent
 
 
 @dataclass(frozen=True)
@@ -436,7 +437,14 @@ def _pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transfor
 def _robot(top: Fields) -> RobotConfig:
     robot = top.section(
         "robot",
-        ("host", "tcp_offset", "tcp_offset_tolerance_mm", "tcp_offset_tolerance_deg", "gripper"),
+        (
+            "host",
+            "tcp_offset",
+            "tcp_offset_tolerance_mm",
+            "tcp_offset_tolerance_deg",
+            "gripper",
+            "watchdog_s",
+        ),
     )
     return RobotConfig(
         host=robot.string("host"),
@@ -456,6 +464,9 @@ def _robot(top: Fields) -> RobotConfig:
             unit="deg",
         ),
         gripper=_gripper(robot) if robot.has("gripper") else None,
+        watchdog_s=robot.number(
+            "watchdog_s", default=RobotConfig.watchdog_s, minimum=0.05, maximum=2.0, unit="s"
+        ),
     )
 
 

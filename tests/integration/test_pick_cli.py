@@ -24,6 +24,7 @@ from handeye_pick.calibration import load_hand_eye
 from handeye_pick.detection import load_detection
 from handeye_pick.geometry import ur_pose_to_matrix
 from mocks.ur_controller import SimulatedController
+from tests.conftest import TEST_WATCHDOG_S
 
 SimFactory = Callable[..., SimulatedController]
 ROOT = Path(__file__).resolve().parents[2]
@@ -45,8 +46,9 @@ def write_config(tmp_path: Path, host: str, **overrides: str) -> Path:
         "workspace": "  min_mm: [-800, -800, 20]\n  max_mm: [800, 800, 700]\n  max_tilt_deg: 30\n",
         "audit": "  file: picks.jsonl\n",
     }
-    sections.update({k: v for k, v in overrides.items() if k != "robot_extra"})
+    sections.update({k: v for k, v in overrides.items() if k not in ("robot_extra", "watchdog_s")})
     text = f"robot:\n  host: {host}\n  tcp_offset: {list(TCP_OFFSET)}\n"
+    text += f"  watchdog_s: {overrides.get('watchdog_s', TEST_WATCHDOG_S)}\n"
     text += overrides.get("robot_extra", "")
     text += "".join(f"{name}:\n{body}" for name, body in sections.items())
     path = tmp_path / "cell.yaml"

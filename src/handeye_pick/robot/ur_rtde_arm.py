@@ -69,6 +69,10 @@ MIN_SPEED_SCALING = 0.05
 """A move's timeout stretches with the speed slider, down to this fraction (20 times longer)."""
 STOP_TIMEOUT_S = 2.0
 """stopL gets this long before the program is stopped through the dashboard instead."""
+DASHBOARD_STOP_DEADLINE_S = 15.0
+"""How long a stop through the dashboard is retried after the RTDE link is lost (a controller
+that stalled for 8 s still gets its stop once it answers again)."""
+DASHBOARD_RETRY_S = 0.25
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 OUTPUT_CONFIRM_TIMEOUT_S = 0.5
@@ -160,18 +164,24 @@ def _ctrl_c_held() -> Iterator[None]:
                 signal.raise_signal(received)  # no handler of ours: die as SIGTERM would have
 
 
-def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
+def dashboard_stop(host: str, timeout_s: float = 2.0) -> tuple[bool, str]:
     """Stop the running program through a fresh dashboard connection (plain socket, bounded).
 
     The last resort once the RTDE link is gone: no ur_rtde code, so nothing can reconnect or
-    hang. Returns the controller's reply (``Stopped`` on success); raises ``OSError`` on a
-    socket failure or timeout.
+    hang. Returns whether the controller confirmed that no program runs (``Stopped``, or
+    ``programState`` answering ``STOPPED`` when the stop itself was refused) and its answers;
+    raises ``OSError`` on a socket failure or timeout.
     """
     with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout_s) as sock:
         reader = sock.makefile("r", encoding="ascii", newline="\n")
         reader.readline()  # banner
         sock.sendall(b"stop\n")
-        return reader.readline().strip()
+        reply = reader.readline().strip()
+        if reply.lower().startswith("stopped"):
+            return True, reply
+        sock.sendall(b"programState\n")
+        state = reader.readline().strip()
+        return state.upper().startswith("STOPPED"), f"{reply}; programState: {state}"
 
 
 def _log_lines(stream: IO[bytes] | None, host: str) -> None:
@@ -212,6 +222,8 @@ class URRtdeArm:
 
     ``with_io`` opens the RTDE IO interface, needed only for ``set_digital_output``.
     ``stop_decel_mps2`` is the stopL deceleration after a fault, a timeout or Ctrl-C.
+    ``watchdog_s``: ur_rtde's controller-side watchdog stops the program when the ur_rtde
+    process has been silent this long; it stays fed while this object's process lives.
     ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
     that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
     itself gives up on a busy control script after about 4 s).
@@ -223,6 +235,7 @@ class URRtdeArm:
         *,
         with_io: bool = False,
         stop_decel_mps2: float = 10.0,
+        watchdog_s: float = 0.2,
         connect_timeout_s: float = 20.0,
         call_timeout_s: float = 6.0,
     ) -> None:
@@ -236,7 +249,7 @@ class URRtdeArm:
         # its own session, so a Ctrl-C at the terminal reaches only this process, which then
         # still has a working child to send stopL through.
         self._process = subprocess.Popen(
-            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host]
+            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host, str(watchdog_s)]
             + (["--io"] if with_io else []),
             pass_fds=(child_socket.fileno(),),
             stdin=subprocess.DEVNULL,
@@ -454,25 +467,20 @@ class URRtdeArm:
 
     def stop_linear(self, decel_mps2: float) -> None:
         """stopL; best effort: on a dead link it stops the program through the dashboard."""
-        if self._dead_reason is not None:
-            self._stop_by_dashboard()
-            return
-        try:
-            self._call("stop_l", decel_mps2, timeout_s=STOP_TIMEOUT_S)
-        except RobotError as exc:
-            log.warning("stopL on %s failed (%s)", self.host, exc)
-            if isinstance(exc, RobotConnectionError):
-                self._stop_by_dashboard()
+        self._stop("stop_l", decel_mps2)
 
     def stop_joints(self, decel_rps2: float) -> None:
         """stopJ; best effort like ``stop_linear``."""
+        self._stop("stop_j", decel_rps2)
+
+    def _stop(self, operation: str, decel: float) -> None:
         if self._dead_reason is not None:
             self._stop_by_dashboard()
             return
         try:
-            self._call("stop_j", decel_rps2, timeout_s=STOP_TIMEOUT_S)
+            self._call(operation, decel, timeout_s=STOP_TIMEOUT_S)
         except RobotError as exc:
-            log.warning("stopJ on %s failed (%s)", self.host, exc)
+            log.warning("%s on %s failed (%s)", operation, self.host, exc)
             if isinstance(exc, RobotConnectionError):
                 self._stop_by_dashboard()
 
@@ -596,13 +604,34 @@ class URRtdeArm:
         )
 
     def _stop_by_dashboard(self) -> None:
-        """Kill the child (it may be reconnecting) and send ``stop`` on a fresh dashboard socket."""
+        """Kill the child (it may be reconnecting), then send ``stop`` on fresh dashboard
+        connections until the controller answers that it stopped or ``DASHBOARD_STOP_DEADLINE_S``
+        passes (a stalled controller may answer only later). Logged as an error when it could
+        not be confirmed: the arm may still be moving."""
         self._kill()
-        try:
-            reply = dashboard_stop(self.host)
-            log.warning("link to %s lost: dashboard stop answered %r", self.host, reply)
-        except OSError as exc:
-            log.error("link to %s lost and dashboard stop failed: %s", self.host, exc)
+        deadline = time.monotonic() + DASHBOARD_STOP_DEADLINE_S
+        attempts = 0
+        while True:
+            attempts += 1
+            try:
+                confirmed, reply = dashboard_stop(self.host)
+            except OSError as exc:
+                confirmed, reply = False, f"no answer ({exc})"
+            if confirmed:
+                log.warning("link to %s lost: dashboard stop confirmed (%r)", self.host, reply)
+                return
+            if time.monotonic() > deadline:
+                log.error(
+                    "LINK TO %s LOST AND THE STOP COULD NOT BE CONFIRMED after %d attempts in "
+                    "%.0f s (last answer: %s): the arm may still be moving; use the emergency "
+                    "stop",
+                    self.host,
+                    attempts,
+                    DASHBOARD_STOP_DEADLINE_S,
+                    reply,
+                )
+                return
+            time.sleep(DASHBOARD_RETRY_S)
 
     # --- pipe --------------------------------------------------------------------------------
 
