@@ -85,12 +85,14 @@ def test_rays_that_miss_everything_are_nan() -> None:
                                    table_max_xy_m=(1.0, 1.0)), T_base_cam=T_base_cam)
     cloud = camera.capture()
     missed = np.isnan(cloud).all(axis=2)
-    assert missed.any() and not missed.all()
+    assert missed.any()
+    assert not missed.all()
     assert (np.isnan(cloud).any(axis=2) == missed).all()  # a pixel is all NaN or all numbers
     points = to_base_m(T_base_cam, cloud)[~missed]
     assert (np.abs(points[:, :2]) <= 1.0 + 1e-6).all()
     # The rows without data are the upper rows (image y down), the rays above the table's edge.
-    assert missed[0].all() and not missed[-1].any()
+    assert missed[0].all()
+    assert not missed[-1].any()
 
 
 def test_eye_in_hand_and_eye_to_hand_mounts_agree_with_the_chain() -> None:
