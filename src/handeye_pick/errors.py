@@ -67,3 +67,8 @@ class RobotFault(RobotError):
         self.safety_mode = safety_mode
         self.runtime_state = runtime_state
         self.robot_mode = robot_mode
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
+    the outcome), then exit status 143 instead of 130."""

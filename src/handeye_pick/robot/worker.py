@@ -75,6 +75,8 @@ class Sample:
 
     timestamp_s: float
     tcp_pose: list[float]
+    q: list[float]  # actual_q, joint positions (rad)
+    qd: list[float]  # actual_qd, joint speeds (rad/s)
     robot_mode: int
     safety_mode: int
     runtime_state: int
@@ -147,6 +149,8 @@ class _Session:
         return Sample(
             timestamp_s=float(r.getTimestamp()),
             tcp_pose=list(r.getActualTCPPose()),
+            q=list(r.getActualQ()),
+            qd=list(r.getActualQd()),
             robot_mode=int(r.getRobotMode()),
             safety_mode=int(r.getSafetyMode()),
             runtime_state=int(r.getRuntimeState()),
@@ -199,6 +203,15 @@ class _Session:
     def stop_l(self, decel_mps2: float) -> None:
         self._control.stopL(decel_mps2, False)
 
+    def is_joints_within_safety_limits(self, q: list[float]) -> bool:
+        return bool(self._control.isJointsWithinSafetyLimits(q))
+
+    def move_j_async(self, q: list[float], speed_rps: float, accel_rps2: float) -> bool:
+        return bool(self._control.moveJ(q, speed_rps, accel_rps2, True))
+
+    def stop_j(self, decel_rps2: float) -> None:
+        self._control.stopJ(decel_rps2, False)
+
     def set_standard_digital_out(self, index: int, value: bool) -> bool:
         return bool(self._require_io().setStandardDigitalOut(index, value))
 
@@ -237,6 +250,9 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
         "has_ik_solution": session.has_ik_solution,
         "move_l_async": session.move_l_async,
         "stop_l": session.stop_l,
+        "is_joints_within_safety_limits": session.is_joints_within_safety_limits,
+        "move_j_async": session.move_j_async,
+        "stop_j": session.stop_j,
         "set_standard_digital_out": session.set_standard_digital_out,
         "set_tool_digital_out": session.set_tool_digital_out,
     }
