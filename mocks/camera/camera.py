@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from mocks.camera.board import BoardNotVisible, CalibrationBoard, PoseNoise
 from mocks.camera.frames import Matrix, checked_transform, invert
-from mocks.camera.scene import Scene
+from mocks.camera.scene import Box, Scene
 from mocks.ur_controller.kinematics import pose_to_matrix
 
 if TYPE_CHECKING:  # the capture command's process never starts a controller
@@ -140,13 +140,42 @@ class SimulatedCamera:
         """An organized cloud: float32 (H, W, 3), ``xyz[row, col]`` in mm in the camera frame,
         NaN where the pixel's ray hits nothing. ``T_base_flange`` as for ``T_base_cam``."""
         T = self.T_base_cam(T_base_flange)
-        t = self.scene.cast(T[:3, 3], T[:3, :3] @ self._rays)
+        height, width = self.intrinsics.height_px, self.intrinsics.width_px
+        origin = T[:3, 3]
+        directions = (T[:3, :3] @ self._rays).reshape(3, height, width)
+        t = self.scene.table_distances(origin, directions.reshape(3, -1)).reshape(height, width)
+        for box in self.scene.boxes.values():
+            window = self._pixel_window(T, box)
+            if window is not None:
+                rows, cols = window
+                rays = directions[:, rows, cols]
+                hits = box.hit_distances(origin, rays.reshape(3, -1)).reshape(rays.shape[1:])
+                np.minimum(t[rows, cols], hits, out=t[rows, cols])
         # The rays have z = 1 in the camera frame, so t is the depth and t * ray the point (m).
-        depth_mm = np.where(np.isfinite(t), t * 1000.0, np.nan)
-        cloud = np.empty((self.intrinsics.height_px, self.intrinsics.width_px, 3), np.float32)
+        depth_mm = np.where(np.isfinite(t), t * 1000.0, np.nan).ravel()
+        cloud = np.empty((height, width, 3), np.float32)
         for axis in range(3):
-            cloud[:, :, axis] = (self._rays[axis] * depth_mm).reshape(cloud.shape[:2])
+            cloud[:, :, axis] = (self._rays[axis] * depth_mm).reshape(height, width)
         return cloud
+
+    def _pixel_window(self, T_base_cam: Matrix, box: Box) -> tuple[slice, slice] | None:
+        """Rows and columns of the pixels whose rays can meet ``box``, None when none can.
+
+        With every corner in front of the camera, the box's image lies inside the rectangle
+        around its corners' images, so only those pixels need a ray test (most of a capture's
+        time otherwise); a box reaching behind the camera gets every pixel.
+        """
+        corners = (box.corners_m() - T_base_cam[:3, 3]) @ T_base_cam[:3, :3]  # camera frame
+        i = self.intrinsics
+        if (corners[:, 2] <= 0.0).any():
+            return slice(0, i.height_px), slice(0, i.width_px)
+        cols = i.cx_px + i.fx_px * corners[:, 0] / corners[:, 2]
+        rows = i.cy_px + i.fy_px * corners[:, 1] / corners[:, 2]
+        col_lo, col_hi = max(0, math.floor(cols.min())), min(i.width_px, math.ceil(cols.max()) + 1)
+        row_lo, row_hi = max(0, math.floor(rows.min())), min(i.height_px, math.ceil(rows.max()) + 1)
+        if col_lo >= col_hi or row_lo >= row_hi:
+            return None
+        return slice(row_lo, row_hi), slice(col_lo, col_hi)
 
     def capture_from(self, controller: SimulatedController) -> NDArray[np.float32]:
         """``capture`` with the arm where the simulated controller says it is now."""

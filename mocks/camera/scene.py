@@ -1,4 +1,5 @@
-"""The simulated camera's world: a table and boxes in the robot base frame, and ray casting.
+"""The simulated camera's world: a table and boxes in the robot base frame, and where rays meet
+them (the camera decides which rays to ask about).
 
 Frames and units: every pose is ``T_base_x`` (the box in the robot base frame), a float64 4x4 in
 metres, as the simulated controller's base frame (z up). A box's own frame has its origin at the
@@ -31,6 +32,14 @@ class Box:
         """The centre of the top face in the base frame, shape (3,), metres."""
         centre: Matrix = self.T_base_box[:3, :3] @ [0.0, 0.0, self.size_m[2]]
         return centre + self.T_base_box[:3, 3]
+
+    def corners_m(self) -> Matrix:
+        """The eight corners in the base frame, shape (8, 3), metres."""
+        x, y, z = self.size_m[0] / 2.0, self.size_m[1] / 2.0, self.size_m[2]
+        corners = np.array([[sx * x, sy * y, h] for sx in (-1, 1) for sy in (-1, 1)
+                            for h in (0.0, z)])
+        result: Matrix = corners @ self.T_base_box[:3, :3].T + self.T_base_box[:3, 3]
+        return result
 
     def hit_distances(self, origin_base_m: Matrix, directions_base: Matrix) -> Matrix:
         """Ray parameter ``t`` of the first hit of each ray ``origin + t * direction`` (inf: none).
@@ -131,26 +140,16 @@ class Scene:
 
     # --- ray casting --------------------------------------------------------------------------
 
-    def cast(self, origin_base_m: ArrayLike, directions_base: ArrayLike) -> Matrix:
-        """Ray parameter ``t`` of the nearest surface along each ray, inf where nothing is hit.
+    def table_distances(self, origin_base_m: Matrix, directions_base: Matrix) -> Matrix:
+        """Ray parameter ``t`` where each ray ``origin + t * direction`` meets the table, inf
+        where it misses (it runs off the table's rectangle, parallel to it, or away from it).
 
-        Rays are ``origin + t * direction`` in the base frame (``origin`` shape (3,), metres;
-        ``directions`` shape (3, N), one column per ray, any length: ``t`` is in units of each
-        direction's length).
-        Only ``t > 0`` counts (surfaces in front of the origin).
+        ``origin_base_m`` shape (3,), ``directions_base`` shape (3, N), base frame, metres.
         """
-        origin = np.asarray(origin_base_m, dtype=np.float64)
-        directions = np.asarray(directions_base, dtype=np.float64)
-        nearest = self._table_distances(origin, directions)
-        for box in self._boxes.values():
-            np.minimum(nearest, box.hit_distances(origin, directions), out=nearest)
-        return nearest
-
-    def _table_distances(self, origin: Matrix, directions: Matrix) -> Matrix:
         with np.errstate(divide="ignore", invalid="ignore"):  # horizontal rays: inf or NaN
-            t = (self.table_height_m - origin[2]) / directions[2]
-            x = origin[0] + t * directions[0]
-            y = origin[1] + t * directions[1]
+            t = (self.table_height_m - origin_base_m[2]) / directions_base[2]
+            x = origin_base_m[0] + t * directions_base[0]
+            y = origin_base_m[1] + t * directions_base[1]
         (x_min, y_min), (x_max, y_max) = self.table_min_xy_m, self.table_max_xy_m
         hit = (t > 0.0) & (x >= x_min) & (x <= x_max) & (y >= y_min) & (y <= y_max)
         return np.where(hit, t, np.inf)

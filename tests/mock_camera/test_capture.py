@@ -124,14 +124,16 @@ def test_intrinsics_from_a_field_of_view() -> None:
 
 
 _poses = st.tuples(
-    st.floats(-0.1, 0.1), st.floats(-0.1, 0.1), st.floats(0.25, 0.8),  # camera above the table
-    st.floats(-math.pi, math.pi), st.floats(0.0, 0.5), st.floats(-math.pi, math.pi),
+    st.floats(-0.1, 0.1), st.floats(-0.1, 0.1), st.floats(0.1, 0.8),  # camera above the table
+    # yaw; tilt from straight down up to nearly horizontal (the box can then reach behind the
+    # camera's image plane); the direction of the tilt
+    st.floats(-math.pi, math.pi), st.floats(0.0, 1.4), st.floats(-math.pi, math.pi),
 )
 
 
 @settings(max_examples=30, deadline=None)
 @given(camera=_poses, box_x=st.floats(-0.1, 0.1), box_yaw=st.floats(-math.pi, math.pi))
-def test_every_point_lies_on_its_pixels_ray_and_on_a_surface(
+def test_every_point_is_the_first_surface_on_its_pixels_ray(
     camera: tuple[float, ...], box_x: float, box_yaw: float
 ) -> None:
     x, y, height, yaw, tilt, tilt_axis = camera
@@ -160,6 +162,13 @@ def test_every_point_lies_on_its_pixels_ray_and_on_a_surface(
     on_box = inside & (gap < 1e-6)
     on_table = np.abs(base[:, 2] - TABLE_M) < 1e-6
     assert (on_box | on_table).all()
+    # The first surface: the nearer of table and box on every pixel's ray, all rays tested (the
+    # camera tests only the rays near the box's image).
+    directions = T_base_cam[:3, :3] @ i.rays()
+    nearest = np.minimum(scene.table_distances(T_base_cam[:3, 3], directions),
+                         scene.boxes["box"].hit_distances(T_base_cam[:3, 3], directions))
+    depth_mm = np.where(np.isfinite(nearest), nearest * 1000.0, np.nan)
+    np.testing.assert_allclose(cloud[:, :, 2].ravel(), depth_mm, rtol=1e-6)
 
 
 def test_a_capture_from_the_simulated_controller_uses_its_flange_pose(
@@ -177,3 +186,19 @@ def test_a_capture_from_the_simulated_controller_uses_its_flange_pose(
     np.testing.assert_array_equal(cloud, camera.capture(T_base_flange))
     # The home pose points the tool down from 488 mm: the box top is 488 - 50 - 100 mm away.
     assert cloud[60, 80, 2] == pytest.approx((T_base_flange[2, 3] - 0.05 - 0.1) * 1000, rel=1e-6)
+
+
+def test_a_box_reaching_behind_the_camera_is_seen_where_it_is_in_front() -> None:
+    # A long box under a camera that looks nearly horizontally along it (towards base -y), 20 mm
+    # above its top: half the box is behind the camera, the other half fills the lower part of
+    # the image.
+    scene = Scene(table_height_m=TABLE_M)
+    scene.add_box("long", (0.1, 0.6, 0.05), scene.on_table(0.0, 0.0))
+    T_base_cam = looking_down(0.0, 0.0, TABLE_M + 0.07, math.pi) \
+        @ pose(0, 0, 0, math.radians(80), 0, 0)
+    cloud = SimulatedCamera(scene, T_base_cam=T_base_cam).capture()
+    points = to_base_m(T_base_cam, cloud)
+    on_top = np.abs(points[:, :, 2] - (TABLE_M + 0.05)) < 1e-6
+    assert on_top.sum() > 1000
+    assert (points[on_top][:, 1] < 0.0).all()  # the part in front of the camera (-y)
+    assert on_top[-1, 80]  # straight below the image centre, the box top
