@@ -11,7 +11,8 @@ and, five times: asks `run` to capture at the named pose `capture`, renders the 
 simulated arm's pose, finds the boxes' top faces in it with plain numpy and scipy.ndimage, sends
 them as candidates of a pick, checks that the grasp (planned and reached) landed within 1 mm of
 the true centre of a box's top face, and moves that box to where it was placed. Prints one line
-per cycle and a summary; exits 0 when every check passed, 1 otherwise.
+per cycle and a summary; exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches all
+three processes: `run` stops the arm and exits 130, then the controller is stopped.
 
 Run it from anywhere after `pip install -e .`:  python examples/vision_loop.py
 """
@@ -70,7 +71,7 @@ HANDEYE_PICK = [sys.executable, "-c",
                 "import sys; from handeye_pick.cli import main; sys.exit(main())"]
 
 Cloud = NDArray[np.float32]
-Vector = NDArray[np.float64]
+Array = NDArray[np.float64]  # a point (3,) or a pose (4, 4), as each name says
 
 
 # --- the simulated world --------------------------------------------------------------------
@@ -115,7 +116,7 @@ def build_camera(scene: Scene, hand_eye_file: Path) -> SimulatedCamera:
     return SimulatedCamera(scene, INTRINSICS, T_flange_cam=T_flange_cam)
 
 
-def place_box(scene: Scene, name: str, T_base_tcp_grasp: Vector, T_base_tcp_place: Vector) -> None:
+def place_box(scene: Scene, name: str, T_base_tcp_grasp: Array, T_base_tcp_place: Array) -> None:
     """Move box ``name`` as the gripper carried it from the grasp to the place pose, then let it
     drop onto the table (both tool poses point straight down, so the box stays upright)."""
     T_tcp_box = np.linalg.inv(T_base_tcp_grasp) @ scene.boxes[name].T_base_box
@@ -127,7 +128,7 @@ def place_box(scene: Scene, name: str, T_base_tcp_grasp: Vector, T_base_tcp_plac
 # --- the vision: boxes in an organized cloud ----------------------------------------------------
 
 
-def _plane(points: NDArray[np.float64]) -> tuple[Vector, Vector]:
+def _plane(points: NDArray[np.float64]) -> tuple[Array, Array]:
     """Least-squares plane through points (N, 3): (centroid, unit normal towards the camera)."""
     centroid = points.mean(axis=0)
     _, vectors = np.linalg.eigh(np.cov((points - centroid).T))
@@ -157,7 +158,7 @@ def height_above_table(cloud_mm: Cloud) -> NDArray[np.float64]:
     return height  # NaN where the cloud has none
 
 
-def find_boxes(cloud_mm: Cloud) -> list[Vector]:
+def find_boxes(cloud_mm: Cloud) -> list[Array]:
     """The centres of the boxes' top faces in the camera frame (mm), tallest box first.
 
     Pixels clearly above the table form one connected blob per box (boxes must not touch in
@@ -169,7 +170,7 @@ def find_boxes(cloud_mm: Cloud) -> list[Vector]:
     above = np.nan_to_num(height, nan=0.0) > MIN_BOX_HEIGHT_MM
     labels, count = ndimage.label(above)
     border = set(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]).tolist())
-    found: list[tuple[float, Vector]] = []
+    found: list[tuple[float, Array]] = []
     for label in range(1, count + 1):
         blob = labels == label
         if label in border or blob.sum() < MIN_BOX_PIXELS:
@@ -242,7 +243,7 @@ class RunSession:
 # --- one cycle ----------------------------------------------------------------------------------
 
 
-def nearest_box(scene: Scene, point_m: Vector) -> tuple[str, float]:
+def nearest_box(scene: Scene, point_m: Array) -> tuple[str, float]:
     """The box whose top-face centre is nearest ``point_m`` (base, m), and the distance (mm)."""
     distances = {name: float(np.linalg.norm(box.top_centre_m() - point_m)) * 1000.0
                  for name, box in scene.boxes.items()}
@@ -277,7 +278,7 @@ def run_cycle(number: int, run: RunSession, controller: SimulatedController, sce
         if error_mm > TOLERANCE_MM:
             problems.append(f"{what} grasp {error_mm:.2f} mm from box {name}'s top centre")
     place_box(scene, name, reached, pose_to_matrix(pick["place"]["pose"]))
-    print(f"cycle {number}: {len(boxes)} boxes seen, picked box {name} (candidate "
+    print(f"cycle {number}: boxes seen {len(boxes)}, picked box {name} (candidate "
           f"{pick['candidate']}), grasp {planned_mm:.2f} mm planned / {reached_mm:.2f} mm reached "
           f"from its top centre, placed at {pick['place']['index']}, {pick['cycle_s']:.1f} s",
           flush=True)
@@ -301,9 +302,12 @@ def main(argv: list[str] | None = None) -> int:
                 done += 1
                 problems += [f"cycle {done}: {p}"
                              for p in run_cycle(done, run, controller, scene, camera)]
-            home = run.request("move", pose="home")
-            if not home.get("ok"):
-                problems.append(f"move home failed: {home.get('error')}")
+            if not problems:
+                home = run.request("move", pose="home")
+                if not home.get("ok"):
+                    problems.append(f"move home ended {home.get('status')}: {home.get('error')}")
+        except RuntimeError as exc:  # no reply, or not the one asked for
+            problems.append(str(exc))
         finally:
             status = run.close()
     if status != 0:
