@@ -45,6 +45,7 @@ from handeye_pick.errors import (
     InputError,
     RobotConnectionError,
     RobotError,
+    RobotFault,
     SafetyRefusal,
 )
 from handeye_pick.geometry import Transform, compose, ur_pose_list
@@ -281,8 +282,18 @@ class Cell:
             return CellStatus(False, [reason], self._halted, *([None] * 7))
         robot = self.config.robot
         state = self._arm.status()
-        T_flange_tcp = self._arm.tcp_offset()
-        T_base_flange = self._arm.flange_pose()
+        try:
+            T_flange_tcp = self._arm.tcp_offset()
+        except RobotFault as exc:  # the control script refuses commands during a stop
+            problems = cell_readiness_problems(
+                state,
+                robot.T_flange_tcp,
+                robot.T_flange_tcp,
+                tolerance_mm=robot.tcp_offset_tolerance_mm,
+                tolerance_deg=robot.tcp_offset_tolerance_deg,
+            )
+            problems.append(f"the controller does not answer getTCPOffset now ({exc})")
+            return self._status(problems, state, None, None)
         problems = cell_readiness_problems(
             state,
             T_flange_tcp,
@@ -290,8 +301,19 @@ class Cell:
             tolerance_mm=robot.tcp_offset_tolerance_mm,
             tolerance_deg=robot.tcp_offset_tolerance_deg,
         )
+        return self._status(problems, state, T_flange_tcp, self._arm.flange_pose())
+
+    def _status(
+        self,
+        problems: list[str],
+        state: RobotStatus,
+        T_flange_tcp: Transform | None,
+        T_base_flange: Transform | None,
+    ) -> CellStatus:
         if self._halted is not None:
             problems.insert(0, f"halted after a fault ({self._halted}): clear it, then resume")
+        if T_flange_tcp is None or T_base_flange is None:
+            return CellStatus(not problems, problems, self._halted, state, *([None] * 6))
         T_base_tcp = compose(T_base_flange, T_flange_tcp)
         return CellStatus(
             ready=not problems,
@@ -299,7 +321,9 @@ class Cell:
             halted=self._halted,
             robot=state,
             T_flange_tcp=T_flange_tcp,
-            tcp_offset_difference=tcp_offset_difference(T_flange_tcp, robot.T_flange_tcp),
+            tcp_offset_difference=tcp_offset_difference(
+                T_flange_tcp, self.config.robot.T_flange_tcp
+            ),
             T_base_flange=T_base_flange,
             T_base_tcp=T_base_tcp,
             T_base_cam=self.calibration.T_base_cam(T_base_flange),

@@ -8,6 +8,7 @@ snapshot, never against our own arithmetic alone.
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -195,7 +196,18 @@ def test_progress_lines_and_summary_for_a_person(
         assert any(line.startswith(expected) for line in lines), (expected, lines)
     assert any(line.startswith("retreat done in") for line in lines)
     assert "pick picked" in result.stdout
-    assert "moveL" in (tmp_path / "debug.log").read_text()
+    log = (tmp_path / "debug.log").read_text()
+    # Every controller call with its duration: the TCP offset, the steady flange pose, each
+    # pre-flight query, the readiness bits and the moves.
+    for call in (
+        "tcp_offset()",
+        "fresh_sample()",
+        "is_pose_within_safety_limits(",
+        "has_ik_solution(",
+        "remote_control()",
+        "move_l_async(",
+    ):
+        assert re.search(rf"{re.escape(call)}.* -> ok .* in \d+\.\d\d ms", log), call
 
 
 # --- refusals: nothing moves ----------------------------------------------------------------------

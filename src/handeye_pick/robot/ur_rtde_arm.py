@@ -631,8 +631,18 @@ class URRtdeArm:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
         self._pending_reply = True
+        started = time.perf_counter()
         kind, value = self._receive(operation, timeout_s)
         self._pending_reply = False
+        if operation != "sample":  # cached RTDE state polled during moves: no controller traffic
+            log.debug(
+                "%s%s -> %s %.60r in %.2f ms",
+                operation,
+                tuple(args),
+                kind,
+                value,
+                (time.perf_counter() - started) * 1000.0,
+            )
         if kind == "failure" and isinstance(value, dict):
             raise self._call_error(Failure(**value))
         if kind != "ok":
