@@ -41,6 +41,7 @@ from handeye_pick.calibration import HandEyeCalibration, HandEyeMode, load_hand_
 from handeye_pick.config import CellConfig, NamedPose, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
+    CellHalted,
     ConfigError,
     InputError,
     RobotConnectionError,
@@ -84,10 +85,6 @@ MAX_CAPTURES_KEPT = 64
 """Latched captures a session remembers (oldest forgotten first): a pick names a recent one."""
 
 ArmFactory = Callable[[CellConfig], RobotArm]
-
-
-class CellHalted(SafetyRefusal):
-    """A fault halted the cell: motion is refused until the operator clears it and resumes."""
 
 
 class NoFeasibleCandidate(SafetyRefusal):
@@ -491,7 +488,6 @@ class Cell:
         started = time.monotonic()
         if not detections:
             raise InputError("pick: no candidate detections given")
-        self._require_not_halted()
         if capture is None:
             self._cycle += 1
         cycle = capture.cycle if capture is not None else self._cycle
@@ -499,6 +495,7 @@ class Cell:
         context: dict[str, object] = {"cycle": cycle, "request_id": request_id}
         outcome: dict[str, object] = {"event": "outcome", **context, "dry_run": dry_run}
         with self._halt_on_fault(), audited_outcome(audit, outcome):
+            self._require_not_halted()
             T_flange_tcp = self._ready_tcp_offset()
             if capture is None:
                 capture = self._live_capture()  # the TCP offset was checked just above
@@ -637,11 +634,11 @@ class Cell:
         record: Mapping[str, object],
     ) -> dict[str, Transform]:
         """Readiness, pre-flight, plan record, moves, outcome record for configured targets."""
-        self._require_not_halted()
         audit = AuditLog(self.config.audit.file)
         context: dict[str, object] = {"cycle": self._cycle, "request_id": request_id, **record}
         outcome: dict[str, object] = {"event": "outcome", **context, "operation": what}
         with self._halt_on_fault(), audited_outcome(audit, outcome):
+            self._require_not_halted()
             self._ready_tcp_offset()
             checks = check_steps(self.config, steps, self.arm, self._fixed_verdicts)
             audit.append(

@@ -41,6 +41,10 @@ class SafetyRefusal(HandEyePickError):
     """A pre-flight check refused the plan, or the cell is not ready; nothing moved (exit 3)."""
 
 
+class CellHalted(SafetyRefusal):
+    """A fault halted the cell: motion is refused until the operator clears it and resumes."""
+
+
 class RobotError(HandEyePickError):
     """The robot or the connection to it failed (exit status 4)."""
 

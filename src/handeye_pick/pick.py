@@ -26,7 +26,7 @@ from handeye_pick.audit import AuditLog
 from handeye_pick.calibration import HandEyeCalibration
 from handeye_pick.config import CellConfig, PlaceConfig
 from handeye_pick.detection import Detection
-from handeye_pick.errors import RobotError, RobotFault, SafetyRefusal, Terminated
+from handeye_pick.errors import CellHalted, RobotError, RobotFault, SafetyRefusal, Terminated
 from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
 from handeye_pick.grasp import backed_off, plan_targets
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_JOINT_SPEED_RPS, MAX_SPEED_MPS
@@ -348,7 +348,9 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
         )
     if isinstance(exc, PreflightRefusal):
         error["checks"] = [asdict(check) for check in exc.results]
-    if isinstance(exc, SafetyRefusal):
+    if isinstance(exc, CellHalted):
+        status = "halted"
+    elif isinstance(exc, SafetyRefusal):
         status = "refused"
     elif isinstance(exc, RobotError):
         status = "fault"

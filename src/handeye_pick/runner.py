@@ -29,15 +29,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from handeye_pick.calibration import HandEyeMode
-from handeye_pick.cell import (
-    Capture,
-    Cell,
-    CellHalted,
-    NoFeasibleCandidate,
-    PickResult,
-)
+from handeye_pick.cell import Capture, Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.detection import Detection, detection_from_data
-from handeye_pick.errors import InputError, RobotError, SafetyRefusal, Terminated
+from handeye_pick.errors import CellHalted, InputError, RobotError, SafetyRefusal, Terminated
 from handeye_pick.geometry import ur_pose_list
 from handeye_pick.safety import PreflightRefusal
 

@@ -17,10 +17,10 @@ import pytest
 
 from handeye_pick import progress as progress_module
 from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
-from handeye_pick.cell import Cell, CellHalted, NoFeasibleCandidate, PickResult
+from handeye_pick.cell import Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import Detection, detection_from_point_mm
-from handeye_pick.errors import RobotFault, SafetyRefusal
+from handeye_pick.errors import CellHalted, RobotFault, SafetyRefusal
 from handeye_pick.geometry import (
     Transform,
     make_transform,
@@ -476,6 +476,7 @@ def test_a_fault_halts_the_cell_until_resume(tmp_path: Path) -> None:
     with pytest.raises(CellHalted):
         cell.move_to("anything")
     assert len(arm.moves()) == moves_before  # nothing moved while halted
+    assert _records(config.audit.file)[-1]["status"] == "halted"  # the refused pick, audited
     arm.fail_on_move = None
     cell.resume()
     assert cell.halted is None
