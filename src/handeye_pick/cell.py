@@ -70,7 +70,7 @@ from handeye_pick.pick import (
 )
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
-from handeye_pick.safety import (
+from handeye_pick.safety import (  # PreflightRefusal: part of this module's API
     CheckResult,
     ControllerVerdicts,
     PreflightRefusal,
@@ -78,6 +78,20 @@ from handeye_pick.safety import (
     tcp_offset_difference,
     workspace_problem,
 )
+
+__all__ = [
+    "CandidateRefusal",
+    "Capture",
+    "Cell",
+    "CellStatus",
+    "NoFeasibleCandidate",
+    "PickPlan",
+    "PickResult",
+    "PreflightRefusal",
+    "StepError",
+    "calibration_from_config",
+    "connect_ur_rtde",
+]
 
 log = logging.getLogger(__name__)
 
@@ -327,6 +341,13 @@ class Cell:
             T_base_cam=self.calibration.T_base_cam(T_base_flange),
             tcp_outside_workspace=workspace_problem(T_base_tcp, self.config.workspace),
         )
+
+    def outside_workspace(self, plan: PickPlan) -> dict[str, str]:
+        """Pick targets of ``plan`` outside the workspace box, and why (the pure part of the
+        pre-flight: the controller's checks need a pick or a dry run)."""
+        box = self.config.workspace
+        found = {name: workspace_problem(T, box) for name, T in plan.targets().items()}
+        return {name: problem for name, problem in found.items() if problem is not None}
 
     def plan(self, detection: Detection, T_base_flange: Transform | None = None) -> PickPlan:
         """The pick's chain and targets for ``detection``, moving nothing and checking nothing

@@ -69,9 +69,13 @@ class PickPlan:
         by_name = {"approach": self.approach, "grasp": self.grasp, "retreat": self.retreat}
         return by_name[step]
 
+    def targets(self) -> dict[str, Transform]:
+        """The three ``T_base_tcp`` targets by step name, in the order they are moved to."""
+        return {name: self.target(name) for name in STEPS}
+
     def targets_ur(self) -> dict[str, list[float]]:
         """The three targets as UR pose vectors (m, rad), for reports and audit records."""
-        return {name: ur_pose_list(self.target(name)) for name in STEPS}
+        return {name: ur_pose_list(T) for name, T in self.targets().items()}
 
 
 @dataclass(frozen=True)

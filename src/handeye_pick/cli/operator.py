@@ -37,8 +37,7 @@ from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell import Cell, CellStatus
-    from handeye_pick.pick import PickPlan
+    from handeye_pick.cell import Cell, CellStatus, PickPlan
 
 DEFAULT_STANDOFF_MM = 10.0
 
@@ -115,9 +114,7 @@ def run_plan(args: argparse.Namespace) -> int:
     from handeye_pick.cell import Cell
     from handeye_pick.cloudio import read_cloud
     from handeye_pick.geometry import compose
-    from handeye_pick.pick import STEPS
     from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
-    from handeye_pick.safety import workspace_problem
 
     cell = Cell(args.config, progress=progress_from_args(args))
     config, calibration = cell.config, cell.calibration
@@ -142,18 +139,13 @@ def run_plan(args: argparse.Namespace) -> int:
         T_base_tcp=compose(plan.T_base_flange, plan.T_flange_tcp),
         T_base_cam=plan.T_base_cam,
         T_base_obj=plan.T_base_obj,
-        tcp_path=tuple((name, plan.target(name)) for name in STEPS),
+        tcp_path=tuple(plan.targets().items()),
         workspace_min_m=_mm_to_m(config.workspace.min_mm),
         workspace_max_m=_mm_to_m(config.workspace.max_mm),
         cloud_base_m=cloud_base_m,
     )
     render_scene(scene, args.plot)
-    # Only the pure checks: the controller's own (safety limits, IK) need a pick or a dry run.
-    outside = {
-        name: problem
-        for name in STEPS
-        if (problem := workspace_problem(plan.target(name), config.workspace))
-    }
+    outside = cell.outside_workspace(plan)
     if args.json:
         print_json(
             {
@@ -374,12 +366,10 @@ def run_touch_test(args: argparse.Namespace) -> int:
 
 
 def _plan_lines(plan: PickPlan) -> list[str]:
-    from handeye_pick.pick import STEPS
-
     rows = [
         ("flange pose", plan.T_base_flange),
         ("camera", plan.T_base_cam),
         ("object", plan.T_base_obj),
     ]
-    rows += [(name, plan.target(name)) for name in STEPS]
+    rows += list(plan.targets().items())
     return [f"  {label:<12} {_show(ur_pose_list(T))}" for label, T in rows]

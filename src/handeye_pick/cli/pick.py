@@ -28,8 +28,7 @@ from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell import PickResult
-    from handeye_pick.pick import StepError
+    from handeye_pick.cell import PickResult, StepError
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -111,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:
-    from handeye_pick.safety import PreflightRefusal
+    from handeye_pick.cell import PreflightRefusal
 
     if isinstance(exc, KeyboardInterrupt):
         return {"status": "interrupted", "error": f"interrupted ({type(exc).__name__}): stopL sent"}
@@ -129,16 +128,14 @@ def _failure_fields(exc: BaseException) -> dict[str, object]:
 
 def _print_summary(result: PickResult, audit_file: str) -> None:
     """The plan and the result for a person, on stdout (UR pose vectors, m and rad)."""
-    from handeye_pick.pick import STEPS
-
     plan = result.plan
     lines = [
         f"pick {result.status}: audit records {result.pick_id} in {audit_file}",
         f"  flange pose  {_fmt(plan.T_base_flange)} ({result.capture.source})",
         f"  object       {_fmt(plan.T_base_obj)}",
     ]
-    for name in STEPS:
-        lines.append(_step_line(name, plan.target(name), result.errors))
+    for name, T_target in plan.targets().items():
+        lines.append(_step_line(name, T_target, result.errors))
     if result.T_base_tcp_place is not None:
         lines.append(_step_line("place", result.T_base_tcp_place, result.errors))
     print("\n".join(lines), flush=True)
