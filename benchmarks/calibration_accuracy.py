@@ -95,8 +95,12 @@ def main() -> None:
     parser.add_argument("--datasets", type=int, default=200, help="clean datasets (and as many "
                         "with a wrong pair); default 200")  # fmt: skip
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--noise-scale", type=float, default=1.0,
-                        help="multiply the generated noise; the solver's model stays as is")  # fmt: skip
+    parser.add_argument(
+        "--noise-scale",
+        type=float,
+        default=1.0,
+        help="multiply the generated noise; the solver's model stays as is",
+    )
     args = parser.parse_args()
     rng = np.random.default_rng(args.seed)
     base = Noise()

@@ -72,8 +72,9 @@ def propose_poses(
     if len(chosen) < count:
         raise InputError(
             f"only {len(chosen)} reachable poses look at {target.tolist()} m from "
-            f"{distance_m} m with {min_separation_deg:g} deg or more between them, {count} "
-            "asked: ask for fewer, or move the point or the distance into easier reach"
+            f"{distance_m} m, tilted {max_tilt_deg:g} deg or less, with {min_separation_deg:g} "
+            f"deg or more between them; {count} asked: ask for fewer, or move the point or the "
+            "distance into easier reach"
         )
     try:
         weak = check_motion(

@@ -210,7 +210,9 @@ def opencv_hand_eye(A: Stack, B: Stack, method: str) -> Transform:
 
     ``A`` goes in as gripper2base, ``B`` as target2cam (see the module docstring). ``method``
     is passed by keyword: a fifth positional argument is an output array, which would silently
-    run TSAI. Raises ``CalibrationError`` when OpenCV fails or returns no finite rotation.
+    run TSAI. The rotation is returned as OpenCV gives it (some methods' are not quite
+    orthonormal). Raises ``CalibrationError`` when OpenCV fails or returns a non-finite matrix
+    or a reflection.
     """
     import cv2  # heavy; only calibrate needs it
 
@@ -228,6 +230,10 @@ def opencv_hand_eye(A: Stack, B: Stack, method: str) -> Transform:
     t = np.asarray(t, dtype=np.float64).reshape(3)
     if not (np.all(np.isfinite(R)) and np.all(np.isfinite(t))):
         raise CalibrationError(f"OpenCV {method} returned a non-finite transform")
+    # On bad data some methods return a reflection, which no rotation is near.
+    det = float(np.linalg.det(R))
+    if det <= 0.0:
+        raise CalibrationError(f"OpenCV {method} returned no rotation (determinant {det:.3g})")
     return make_transform(R, t)
 
 
