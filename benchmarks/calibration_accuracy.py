@@ -36,6 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/, not in the installed package
 
 from handeye_pick.calibration import HandEyeMode  # noqa: E402
+from handeye_pick.errors import CalibrationError  # noqa: E402
 from handeye_pick.geometry import Transform, rotation_angle_between  # noqa: E402
 from handeye_pick.handeye_dataset import HandEyePair  # noqa: E402
 from handeye_pick.handeye_solver import (  # noqa: E402
@@ -62,9 +63,16 @@ def as_pairs(captures: list[tuple[Transform, Transform]]) -> list[HandEyePair]:
 
 
 def opencv_errors(pairs: list[HandEyePair], scene: Scene, mode: HandEyeMode) -> Errors:
+    """Each OpenCV method's error; infinite where it returned no rotation (a reflection)."""
     A = robot_side(np.stack([p.T_base_flange for p in pairs]), mode)
     B = np.stack([p.T_cam_obj for p in pairs])
-    return {m: [error(opencv_hand_eye(A, B, m), scene.T_cal)] for m in OPENCV_METHODS}
+    errors: Errors = {}
+    for method in OPENCV_METHODS:
+        try:
+            errors[method] = [error(opencv_hand_eye(A, B, method), scene.T_cal)]
+        except CalibrationError:
+            errors[method] = [(math.inf, math.inf)]
+    return errors
 
 
 def best_opencv(errors: Errors) -> str:

@@ -20,12 +20,14 @@ best (least weighted cost below) is refined by nonlinear least squares over ``X`
 jointly, over every pair. Each pair contributes six residuals of ``A_N X B_N`` against ``Y``,
 weighted by the errors the stated ``MeasurementNoise`` predicts for them:
 
-- rotation (3, rad: the rotation vector of ``R_Y^T R_N``), divided by
-  sqrt(camera_rotation^2 + robot_rotation^2);
-- translation (3, m: the object's origin through the chain minus ``Y``'s), whitened by the
-  3x3 covariance the camera's lateral and depth errors, the robot's translation error, and the
-  robot's rotation error acting through the object's distance from the flange predict for that
-  pair (``_Problem._translation_whitening``).
+- rotation (3, rad): the rotation vector of ``R_Y^T R_N``, in the object's frame;
+- translation (3, m): the object's origin through the chain minus ``Y``'s.
+
+The six are whitened together by the 6x6 covariance the noise model predicts for that pair
+(``_Problem._whitening``): the robot's translation and rotation errors, the latter acting
+through the object's distance from the flange, and the camera's lateral, depth and rotation
+errors, propagated through the chain. One robot rotation error moves both the rotation and the
+translation residual, and the covariance keeps that correlation.
 
 A fit over every pair, rather than OpenCV's differences between poses, weighs each measurement
 once and does not depend on the order of the pairs. The residual reported for a pair is the
@@ -36,8 +38,8 @@ Suspects. A pair is a suspect when its residual stands out against a robust refi
 Cauchy loss, scale ``ROBUST_SCALE`` times the noise level the plain fit shows, so that one wrong
 pair cannot drag the consensus toward itself). The noise level is the median absolute weighted
 residual of the plain fit over 0.6745 (1 when the data match the stated noise, never less).
-Its rotation or its translation residual, each as the length of its weighted 3-vector, exceeds
-both ``median + SUSPECT_MADS * 1.4826 * MAD`` of that quantity over all pairs and
+Its rotation or its translation residual (the length of the whitened rotation part, or of the
+whitened translation part, which is what the rotation does not explain) exceeds both ``median + SUSPECT_MADS * 1.4826 * MAD`` of that quantity over all pairs and
 ``SUSPECT_FLOOR`` times the noise level. Suspects are named and what excluding them would give
 is computed; nothing is excluded unless the caller asks.
 
@@ -78,6 +80,8 @@ ROBUST_SCALE = 3.0
 
 Stack = NDArray[np.float64]
 """N x 4 x 4 transforms, one per pair, metres."""
+_STEP = 1e-6
+"""Finite-difference step (m, rad) for propagating the measurement errors."""
 
 
 @dataclass(frozen=True)
@@ -327,57 +331,74 @@ class _Problem:
     def _residual_function(
         self, X0: Transform, Y0: Transform, noise: MeasurementNoise
     ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
-        """Whitened residuals (per pair: 3 rotation, 3 translation) as a function of the 12
-        corrections to ``X0`` and ``Y0``. The weights come from ``X0`` and stay fixed, so the
-        cost is one function to minimise."""
-        sigma_rot = math.radians(math.hypot(noise.camera_rotation_deg, noise.robot_rotation_deg))
-        whiten = self._translation_whitening(X0, noise)
+        """Whitened residuals (6 per pair) as a function of the 12 corrections to ``X0`` and
+        ``Y0``. The weights come from ``X0`` and ``Y0`` and stay fixed, so the cost is one
+        function to minimise."""
+        whiten = self._whitening(X0, Y0, noise)
         A, B = self.A, self.B
 
         def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
             X, Y = _apply(params, X0, Y0)
-            chain = A @ X @ B
-            rotation = Rotation.from_matrix(Y[:3, :3].T @ chain[:, :3, :3]).as_rotvec()
-            translation = np.einsum("nij,nj->ni", whiten, chain[:, :3, 3] - Y[:3, 3])
-            return np.concatenate([rotation / sigma_rot, translation], axis=1).ravel()
+            whitened: NDArray[np.float64] = np.einsum(
+                "nij,nj->ni", whiten, _raw_residuals(A, X, B, Y)
+            )
+            return whitened.ravel()
 
         return residuals
 
-    def _translation_whitening(self, X: Transform, noise: MeasurementNoise) -> Stack:
-        """Per pair, the 3x3 ``W`` with ``W @ C @ W.T = I`` for the covariance ``C`` (m^2) the
-        noise model predicts for the object's origin through that pair's chain, in Y's frame.
+    def _whitening(self, X: Transform, Y: Transform, noise: MeasurementNoise) -> Stack:
+        """Per pair, the 6x6 ``W`` with ``W @ C @ W.T = I`` for the covariance ``C`` of the
+        pair's raw residuals (rotation, then translation) that the noise model predicts.
 
-        ``C`` adds the camera's error (lateral and depth, turned from the camera frame by
-        ``R_A R_X``), the robot's translation error and its rotation error acting through the
-        lever arm ``q`` (the object's origin in the flange frame): ``var_rot * (|q|^2 I - q q^T)``,
-        turned from the flange frame into Y's frame (by ``R_A`` eye-in-hand; eye-to-hand Y's frame
-        is the flange). A detector's rotation error turns the object about its own origin and
-        adds nothing here.
+        ``C`` propagates each error source through the chain to first order (central
+        differences): the robot's translation and rotation errors of ``T_base_flange`` (in the
+        flange frame, where they act through the object's distance from the flange) and the
+        camera's lateral, depth and rotation errors of ``T_cam_obj`` (position in the camera
+        frame, rotation about the object's origin). One robot rotation error moves both the
+        rotation and the translation residual; ``C`` keeps that correlation. ``W`` is lower
+        triangular, so a whitened pair's first three numbers depend on its rotation residual only.
         """
-        lateral_m, depth_m = noise.camera_lateral_mm * 1e-3, noise.camera_depth_mm * 1e-3
-        R_cam = (self.A @ X)[:, :3, :3]
-        C = R_cam @ np.diag([lateral_m**2, lateral_m**2, depth_m**2]) @ R_cam.transpose(0, 2, 1)
-        q = self._object_in_flange(X)
-        lever = np.einsum("n,ij->nij", np.sum(q * q, axis=1), np.eye(3)) - np.einsum(
-            "ni,nj->nij", q, q
+        robot_m, robot_rad = (
+            noise.robot_translation_mm * 1e-3,
+            math.radians(noise.robot_rotation_deg),
         )
-        robot = (noise.robot_translation_mm * 1e-3) ** 2 * np.eye(3) + math.radians(
-            noise.robot_rotation_deg
-        ) ** 2 * lever
+        lateral_m, depth_m = noise.camera_lateral_mm * 1e-3, noise.camera_depth_mm * 1e-3
+        camera_rad = math.radians(noise.camera_rotation_deg)
+        sources = (
+            (self._perturb_robot, [robot_m] * 3 + [robot_rad] * 3),
+            (self._perturb_camera, [lateral_m, lateral_m, depth_m] + [camera_rad] * 3),
+        )
+        columns = []
+        for perturb, sigmas in sources:
+            for k, sigma in enumerate(sigmas):
+                step = np.zeros(6)
+                step[k] = _STEP
+                (A_plus, B_plus), (A_minus, B_minus) = perturb(step), perturb(-step)
+                plus = _raw_residuals(A_plus, X, B_plus, Y)
+                minus = _raw_residuals(A_minus, X, B_minus, Y)
+                columns.append((plus - minus) / (2 * _STEP) * sigma)
+        J = np.stack(columns, axis=2)  # N x 6 residuals x 12 error sources, each 1 sigma
+        C = J @ J.transpose(0, 2, 1)
+        return np.asarray(np.linalg.inv(np.linalg.cholesky(C)))
+
+    def _perturb_robot(self, error: NDArray[np.float64]) -> tuple[Stack, Stack]:
+        """``A`` and ``B`` with ``T_base_flange`` moved by ``error`` (m, rad), flange frame."""
+        E = make_transform(Rotation.from_rotvec(error[3:]).as_matrix(), error[:3])
         if self.mode is HandEyeMode.EYE_IN_HAND:
-            R_flange = self.A[:, :3, :3]
-            robot = R_flange @ robot @ R_flange.transpose(0, 2, 1)
-        return np.asarray(np.linalg.inv(np.linalg.cholesky(C + robot)))
+            return self.A @ E, self.B  # A = T_base_flange
+        return invert(E) @ self.A, self.B  # A = inv(T_base_flange)
+
+    def _perturb_camera(self, error: NDArray[np.float64]) -> tuple[Stack, Stack]:
+        """``A`` and ``B`` with ``T_cam_obj`` moved by ``error``: its position in the camera frame
+        (m), its rotation about the object's origin (rad)."""
+        B = self.B.copy()
+        B[:, :3, 3] += error[:3]
+        B[:, :3, :3] = B[:, :3, :3] @ Rotation.from_rotvec(error[3:]).as_matrix()
+        return self.A, B
 
     def _weighted(self, X: Transform, Y: Transform, noise: MeasurementNoise) -> NDArray[np.float64]:
-        """The weighted residuals at ``X`` and ``Y`` (weights from ``X``)."""
+        """The whitened residuals at ``X`` and ``Y`` (weights from them too)."""
         return self._residual_function(X, Y, noise)(np.zeros(12))
-
-    def _object_in_flange(self, X: Transform) -> NDArray[np.float64]:
-        """The object's origin in the flange frame at each capture (N x 3, m)."""
-        if self.mode is HandEyeMode.EYE_IN_HAND:
-            return (X @ self.B)[:, :3, 3]  # T_flange_cam @ T_cam_obj
-        return (self.A @ X @ self.B)[:, :3, 3]  # T_flange_base @ T_base_cam @ T_cam_obj
 
     def _consensus(self, X: Transform) -> Transform:
         """Mean of the object's poses through every chain: the start for ``Y``."""
@@ -395,6 +416,14 @@ class _Problem:
             )
             for i, number in enumerate(self.numbers)
         )
+
+
+def _raw_residuals(A: Stack, X: Transform, B: Stack, Y: Transform) -> NDArray[np.float64]:
+    """Per pair, the object's pose through the chain against ``Y``: the rotation vector of
+    ``R_Y^T R_chain`` (rad, object frame), then the translation difference (m, Y's frame)."""
+    chain = A @ X @ B
+    rotation = Rotation.from_matrix(Y[:3, :3].T @ chain[:, :3, :3]).as_rotvec()
+    return np.concatenate([rotation, chain[:, :3, 3] - Y[:3, 3]], axis=1)
 
 
 def _apply(
