@@ -75,9 +75,9 @@ def opencv_errors(pairs: list[HandEyePair], scene: Scene, mode: HandEyeMode) -> 
     return errors
 
 
-def best_opencv(errors: Errors) -> str:
-    """The OpenCV method with the smallest median translation error."""
-    return min(OPENCV_METHODS, key=lambda m: float(np.median([e[0] for e in errors[m]])))
+def best_opencv(errors: Errors, index: int) -> str:
+    """The OpenCV method with the smallest median error (0: translation, 1: rotation)."""
+    return min(OPENCV_METHODS, key=lambda m: float(np.median([e[index] for e in errors[m]])))
 
 
 def print_table(title: str, errors: Errors) -> None:
@@ -91,8 +91,8 @@ def print_table(title: str, errors: Errors) -> None:
             f"  {method:<14} {np.median(t):12.4f} {np.percentile(t, 90):8.4f} "
             f"{np.median(r):11.5f} {np.percentile(r, 90):8.5f}"
         )
-    best = best_opencv(errors)
     for index, unit in ((0, "translation"), (1, "rotation")):
+        best = best_opencv(errors, index)
         ours = float(np.median([e[index] for e in errors[OURS]]))
         theirs = float(np.median([e[index] for e in errors[best]]))
         print(f"  median {unit}: ours / best OpenCV ({best}) = {ours / theirs:.2f}")

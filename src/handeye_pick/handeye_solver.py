@@ -38,10 +38,11 @@ Suspects. A pair is a suspect when its residual stands out against a robust refi
 Cauchy loss, scale ``ROBUST_SCALE`` times the noise level the plain fit shows, so that one wrong
 pair cannot drag the consensus toward itself). The noise level is the median absolute weighted
 residual of the plain fit over 0.6745 (1 when the data match the stated noise, never less).
-Its rotation or its translation residual (the length of the whitened rotation part, or of the
-whitened translation part, which is what the rotation does not explain) exceeds both ``median + SUSPECT_MADS * 1.4826 * MAD`` of that quantity over all pairs and
-``SUSPECT_FLOOR`` times the noise level. Suspects are named and what excluding them would give
-is computed; nothing is excluded unless the caller asks.
+A pair stands out when its rotation or its translation residual (the length of the whitened
+rotation part, or of the whitened translation part, which is what the rotation does not
+explain) exceeds both ``median + SUSPECT_MADS * 1.4826 * MAD`` of that quantity over all pairs
+and ``SUSPECT_FLOOR`` times the noise level. Suspects are named and what excluding them would
+give is computed; nothing is excluded unless the caller asks.
 
 Units: metres and radians inside; millimetres and degrees only in ``PairResidual`` and
 ``MeasurementNoise`` (the edges). cv2 and scipy.optimize are imported where they are used.
@@ -319,12 +320,8 @@ class _Problem:
 
         Y0 = self._consensus(X0)
         fun = self._residual_function(X0, Y0, noise)
-        if robust_scale is None:
-            solution = least_squares(fun, np.zeros(12), x_scale="jac")
-        else:
-            solution = least_squares(
-                fun, np.zeros(12), x_scale="jac", loss="cauchy", f_scale=robust_scale
-            )
+        loss, scale = ("linear", 1.0) if robust_scale is None else ("cauchy", robust_scale)
+        solution = least_squares(fun, np.zeros(12), x_scale="jac", loss=loss, f_scale=scale)
         X, Y = _apply(solution.x, X0, Y0)
         return HandEyeFit(T_cal=X, T_fixed_obj=Y, residuals=self._pair_residuals(X, Y))
 
@@ -332,9 +329,9 @@ class _Problem:
         self, X0: Transform, Y0: Transform, noise: MeasurementNoise
     ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
         """Whitened residuals (6 per pair) as a function of the 12 corrections to ``X0`` and
-        ``Y0``. The weights come from ``X0`` and ``Y0`` and stay fixed, so the cost is one
-        function to minimise."""
-        whiten = self._whitening(X0, Y0, noise)
+        ``Y0``. The weights come from ``X0`` and stay fixed, so the cost is one function to
+        minimise."""
+        whiten = self._whitening(X0, noise)
         A, B = self.A, self.B
 
         def residuals(params: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -346,7 +343,7 @@ class _Problem:
 
         return residuals
 
-    def _whitening(self, X: Transform, Y: Transform, noise: MeasurementNoise) -> Stack:
+    def _whitening(self, X: Transform, noise: MeasurementNoise) -> Stack:
         """Per pair, the 6x6 ``W`` with ``W @ C @ W.T = I`` for the covariance ``C`` of the
         pair's raw residuals (rotation, then translation) that the noise model predicts.
 
@@ -357,7 +354,10 @@ class _Problem:
         frame, rotation about the object's origin). One robot rotation error moves both the
         rotation and the translation residual; ``C`` keeps that correlation. ``W`` is lower
         triangular, so a whitened pair's first three numbers depend on its rotation residual only.
+        The errors are propagated around each pair's own chain, where its residual is zero, so
+        the weights do not depend on how far a (possibly wrong) pair is from the consensus.
         """
+        at_chain = self.A @ X @ self.B
         robot_m, robot_rad = (
             noise.robot_translation_mm * 1e-3,
             math.radians(noise.robot_rotation_deg),
@@ -374,8 +374,8 @@ class _Problem:
                 step = np.zeros(6)
                 step[k] = _STEP
                 (A_plus, B_plus), (A_minus, B_minus) = perturb(step), perturb(-step)
-                plus = _raw_residuals(A_plus, X, B_plus, Y)
-                minus = _raw_residuals(A_minus, X, B_minus, Y)
+                plus = _raw_residuals(A_plus, X, B_plus, at_chain)
+                minus = _raw_residuals(A_minus, X, B_minus, at_chain)
                 columns.append((plus - minus) / (2 * _STEP) * sigma)
         J = np.stack(columns, axis=2)  # N x 6 residuals x 12 error sources, each 1 sigma
         C = J @ J.transpose(0, 2, 1)
@@ -397,7 +397,7 @@ class _Problem:
         return self.A, B
 
     def _weighted(self, X: Transform, Y: Transform, noise: MeasurementNoise) -> NDArray[np.float64]:
-        """The whitened residuals at ``X`` and ``Y`` (weights from them too)."""
+        """The whitened residuals at ``X`` and ``Y`` (weights from ``X``)."""
         return self._residual_function(X, Y, noise)(np.zeros(12))
 
     def _consensus(self, X: Transform) -> Transform:
@@ -418,12 +418,14 @@ class _Problem:
         )
 
 
-def _raw_residuals(A: Stack, X: Transform, B: Stack, Y: Transform) -> NDArray[np.float64]:
-    """Per pair, the object's pose through the chain against ``Y``: the rotation vector of
-    ``R_Y^T R_chain`` (rad, object frame), then the translation difference (m, Y's frame)."""
+def _raw_residuals(A: Stack, X: Transform, B: Stack, Y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Per pair, the object's pose through the chain against ``Y`` (one 4x4, or one per pair):
+    the rotation vector of ``R_Y^T R_chain`` (rad, object frame), then the translation
+    difference (m, Y's frame)."""
     chain = A @ X @ B
-    rotation = Rotation.from_matrix(Y[:3, :3].T @ chain[:, :3, :3]).as_rotvec()
-    return np.concatenate([rotation, chain[:, :3, 3] - Y[:3, 3]], axis=1)
+    R_Y_T = np.swapaxes(Y[..., :3, :3], -1, -2)
+    rotation = Rotation.from_matrix(R_Y_T @ chain[:, :3, :3]).as_rotvec()
+    return np.concatenate([rotation, chain[:, :3, 3] - Y[..., :3, 3]], axis=1)
 
 
 def _apply(
