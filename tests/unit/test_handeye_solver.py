@@ -141,6 +141,21 @@ def test_a_wrongly_paired_sample_is_named_and_nothing_is_excluded_silently(
     assert bad not in [r.number for r in result.without_suspects.residuals]
 
 
+@pytest.mark.parametrize("mode", MODES)
+def test_a_pair_half_a_turn_off_is_named(mode: HandEyeMode) -> None:
+    # An object pose turned 179.9 deg about its normal (a symmetric board read the wrong way
+    # round): its rotation residual sits at the rotation vector's wrap-around.
+    rng = np.random.default_rng(25)
+    scene = make_scene(rng, mode.value, 10)
+    captures = measure(scene, rng, Noise())
+    T_base_flange, T_cam_obj = captures[7]
+    captures[7] = (T_base_flange, T_cam_obj @ ur_pose_to_matrix([0, 0, 0, 0, 0, 3.14]))
+    result = solve_hand_eye(as_pairs(captures), mode)
+    assert result.suspects == (NUMBERS[7],)
+    assert result.without_suspects is not None
+    assert errors(result.without_suspects.T_cal, scene.T_cal)[0] < 0.5
+
+
 def test_excluding_the_wrong_pair_by_number() -> None:
     rng = np.random.default_rng(22)
     scene = make_scene(rng, "eye-to-hand", 12)
