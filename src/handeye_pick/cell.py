@@ -639,13 +639,15 @@ class Cell:
         self._place_index += 1
         return T_place
 
-    def move_to(self, name: str, *, request_id: str | None = None) -> Transform:
-        """Move to the named pose (moveJ for joints, moveL for a TCP pose), checked and audited
-        like any motion; returns the reached ``T_base_tcp``."""
+    def move_to(self, pose: str | NamedPose, *, request_id: str | None = None) -> Transform:
+        """Move to a named pose of the config, or to a ``NamedPose`` given directly (moveJ for
+        joints, moveL for a TCP pose), checked and audited like any motion; returns the reached
+        ``T_base_tcp``."""
         self._require_not_halted()
-        pose = self.config.pose(name)
-        reached = self._run_fixed([_named_move(pose)], f"move {name}", request_id, {"pose": name})
-        return reached[pose.name]
+        target = self.config.pose(pose) if isinstance(pose, str) else pose
+        steps = [_named_move(target)]
+        reached = self._run_fixed(steps, f"move {target.name}", request_id, {"pose": target.name})
+        return reached[target.name]
 
     def _run_fixed(
         self,
