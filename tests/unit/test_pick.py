@@ -7,6 +7,7 @@ is covered end to end in tests/integration against the simulated controller.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -541,3 +542,21 @@ def test_quiet_progress_prints_nothing(capsys: pytest.CaptureFixture[str]) -> No
     with Progress.quiet().step("retreat") as report:
         report(0.5)
     assert capsys.readouterr() == ("", "")
+
+
+def test_a_position_only_grasp_keeps_the_tcp_yaw_not_the_flange_yaw(tmp_path: Path) -> None:
+    # A TCP offset turned 0.4 rad about the tool z axis: the grasp keeps the yaw the TCP had at
+    # capture. Planning from the flange pose instead would turn the tool 23 degrees.
+    config = _config(tmp_path)
+    config = dataclasses.replace(
+        config,
+        robot=dataclasses.replace(
+            config.robot, T_flange_tcp=ur_pose_to_matrix([0.0, 0.0, 0.12, 0.0, 0.0, 0.4])
+        ),
+    )
+    arm = ScriptedArm(config.audit.file)
+    arm.T_flange_tcp = config.robot.T_flange_tcp
+    result = _cell(config, arm).pick(detection_from_point_mm([20.0, 10.0, 350.0], "test"))
+    R_base_tcp = (T_BASE_FLANGE @ arm.T_flange_tcp)[:3, :3]
+    np.testing.assert_allclose(result.plan.grasp[:3, :3], R_base_tcp, atol=1e-9)
+    np.testing.assert_allclose(arm.moves()[1][0][:3, :3], R_base_tcp, atol=1e-9)
