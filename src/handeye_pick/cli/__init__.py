@@ -3,6 +3,14 @@
 Each command lives in its own module that adds a sub-parser with ``register(subparsers)`` and
 sets ``run=function(args) -> int``. This module turns typed errors into one-line messages and
 exit statuses, so no command prints a traceback for a failure it knows about.
+
+Start-up: building the parser imports every command module, so whatever a command module imports
+at its top is paid by every command, ``--help`` included. The package keeps that light at the
+roots: ``import handeye_pick`` loads nothing else, ``geometry`` needs no scipy, ``plot`` imports
+matplotlib and ``cloud`` imports numba inside the functions that use them. A command module only
+has to follow the same rule for anything new and heavy it brings (scipy, matplotlib, numba, cv2,
+open3d): import it inside the function that needs it, never at the top of a module the CLI
+imports. tests/unit/test_light_imports.py checks every registered command's ``--help``.
 """
 
 from __future__ import annotations
