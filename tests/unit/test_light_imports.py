@@ -1,13 +1,13 @@
-"""Commands start light: none loads matplotlib, scipy or numba unless it draws or JIT-compiles.
+"""Commands start light: none loads matplotlib, scipy or numba unless it draws or JIT-compiles,
+and a command imports no other command's module.
 
 Each case runs the CLI in a fresh interpreter (a module, once imported, stays in sys.modules) and
-reports the heavy modules it loaded. No timing: what is imported is what costs the start-up time
+reports the modules it loaded. No timing: what is imported is what costs the start-up time
 (benchmarks/startup.py measures it).
 """
 
 from __future__ import annotations
 
-import argparse
 import json
 import subprocess
 import sys
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from handeye_pick.cli import build_parser
+from handeye_pick.cli import COMMANDS, MODULES, parser_with
 
 ROOT = Path(__file__).resolve().parents[2]
 HEAVY = ("matplotlib", "scipy", "numba", "llvmlite", "cv2", "open3d")
@@ -28,21 +28,14 @@ try:
     status = main(json.loads(sys.argv[1]))
 except SystemExit as exc:  # --help ends through argparse
     status = exc.code
-heavy = sorted(m for m in sys.modules if m.split(".")[0] in json.loads(sys.argv[2]))
-print(json.dumps({"status": status, "heavy": heavy}), file=sys.stderr)
+print(json.dumps({"status": status, "modules": sorted(sys.modules)}), file=sys.stderr)
 """
 
 
-def _registered_commands() -> list[str]:
-    parser = build_parser()
-    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
-    return sorted(sub.choices)
-
-
-def _heavy_modules_loaded(argv: list[str], cwd: Path) -> list[str]:
-    """Run ``handeye-pick argv`` in a new interpreter; the heavy modules it imported."""
+def _modules_loaded(argv: list[str], cwd: Path) -> list[str]:
+    """Run ``handeye-pick argv`` in a new interpreter; every module it imported."""
     result = subprocess.run(
-        [sys.executable, "-c", _PROBE, json.dumps(argv), json.dumps(HEAVY)],
+        [sys.executable, "-c", _PROBE, json.dumps(argv)],
         cwd=cwd,
         capture_output=True,
         text=True,
@@ -51,13 +44,31 @@ def _heavy_modules_loaded(argv: list[str], cwd: Path) -> list[str]:
     )
     report = json.loads(result.stderr.strip().splitlines()[-1])
     assert report["status"] == 0, result.stdout + result.stderr
-    heavy: list[str] = report["heavy"]
-    return heavy
+    modules: list[str] = report["modules"]
+    return modules
 
 
-@pytest.mark.parametrize("command", [[], *([name] for name in _registered_commands())], ids=str)
-def test_help_loads_nothing_heavy(command: list[str]) -> None:
-    assert _heavy_modules_loaded([*command, "--help"], ROOT) == []
+def _heavy(modules: list[str]) -> list[str]:
+    return [m for m in modules if m.split(".")[0] in HEAVY]
+
+
+def test_top_level_help_imports_no_command_module() -> None:
+    loaded = _modules_loaded(["--help"], ROOT)
+    assert _heavy(loaded) == []
+    assert [m for m in loaded if m.startswith("handeye_pick.cli.")] == []
+
+
+@pytest.mark.parametrize("command", list(COMMANDS))
+def test_a_commands_help_loads_nothing_heavy(command: str) -> None:
+    loaded = _modules_loaded([command, "--help"], ROOT)
+    assert f"handeye_pick.cli.{COMMANDS[command][0]}" in loaded
+    assert _heavy(loaded) == []
+
+
+def test_summaries_listed_without_the_modules_match_the_modules_own() -> None:
+    # The top-level --help, built from COMMANDS alone, is the one the complete parser prints:
+    # every command of every module is in COMMANDS, with its sub-parser's own help line.
+    assert parser_with(()).format_help() == parser_with().format_help()
 
 
 @pytest.mark.parametrize(
@@ -72,15 +83,22 @@ def test_help_loads_nothing_heavy(command: list[str]) -> None:
     ],
     ids=["convert-euler", "convert-matrix", "point-eye-to-hand", "point-eye-in-hand"],
 )
-def test_commands_without_a_robot_load_nothing_heavy(command_line: str) -> None:
-    assert _heavy_modules_loaded(command_line.split(), ROOT) == []
+def test_commands_without_a_robot_load_nothing_heavy_and_no_other_command(
+    command_line: str,
+) -> None:
+    loaded = _modules_loaded(command_line.split(), ROOT)
+    assert _heavy(loaded) == []
+    other_commands = {f"handeye_pick.cli.{module}" for module in MODULES} - {
+        "handeye_pick.cli.transform"
+    }
+    assert other_commands.isdisjoint(loaded)
 
 
 def test_a_small_cloud_job_does_not_load_the_jit(tmp_path: Path) -> None:
     # A one-off job in a fresh process transforms with numpy: loading numba would cost more.
     np.save(tmp_path / "camera.npy", np.ones((40, 30, 3), dtype=np.float32))
-    assert _heavy_modules_loaded(_cloud_argv("camera.npy", "base.ply"), tmp_path) == []
-    assert _heavy_modules_loaded(_cloud_argv("base.ply", "again.npy"), tmp_path) == []
+    assert _heavy(_modules_loaded(_cloud_argv("camera.npy", "base.ply"), tmp_path)) == []
+    assert _heavy(_modules_loaded(_cloud_argv("base.ply", "again.npy"), tmp_path)) == []
 
 
 def _cloud_argv(source: str, target: str) -> list[str]:
