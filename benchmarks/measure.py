@@ -1,10 +1,12 @@
 """Run commands side by side and measure each run's wall time and peak memory, as /usr/bin/time.
 
-Used by ``startup.py`` and ``cloud_job.py``. Every command runs in its own process; its peak
-resident memory comes from ``os.wait4``'s resource usage of exactly that process (maxrss), its
-time is the wall time from start to exit as seen by this script. The commands are interleaved,
-one run of each per round in a rotating order, so machine noise (a shared 2-core box) hits them
-alike; the figures to read are the medians and their ratios.
+Used by ``startup.py`` and ``cloud_job.py``. Every command runs in its own process, started by
+a bare launcher (``python -S``, about 9 MiB): a process's peak RSS counts what it held before
+``exec`` too, so a command started straight from this script (which holds numpy and a test
+cloud) would inherit this script's size. The launcher reports the command's peak resident memory
+(``os.wait4``'s maxrss of exactly that process) and its wall time from spawn to exit. The
+commands are interleaved, one run of each per round in a rotating order, so machine noise (a
+shared 2-core box) hits them alike; the figures to read are the medians and their ratios.
 """
 
 from __future__ import annotations
@@ -14,11 +16,20 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import time
 from dataclasses import dataclass
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
+
+_LAUNCHER = """
+import os, sys, time
+start = time.perf_counter()
+pid = os.posix_spawnp(sys.argv[2], sys.argv[2:], os.environ)
+_, status, usage = os.wait4(pid, 0)
+seconds = time.perf_counter() - start
+with open(sys.argv[1], "w") as report:
+    report.write(f"{seconds} {usage.ru_maxrss} {os.waitstatus_to_exitcode(status)}")
+"""
 
 
 @dataclass(frozen=True)
@@ -45,16 +56,20 @@ def console_script(name: str) -> str:
 
 def run_once(argv: list[str], cwd: Path = ROOT) -> Run:
     """Run ``argv`` to the end; its wall time and peak RSS. Exits naming it if it fails."""
-    with tempfile.TemporaryFile() as stderr:
-        start = time.perf_counter()
-        process = subprocess.Popen(argv, cwd=cwd, stdout=subprocess.DEVNULL, stderr=stderr)
-        _, status, usage = os.wait4(process.pid, 0)
-        seconds = time.perf_counter() - start
-        process.returncode = os.waitstatus_to_exitcode(status)  # reaped here, not by Popen
-        if process.returncode != 0:
-            stderr.seek(0)
-            sys.exit(f"{' '.join(argv)} failed ({process.returncode}):\n{stderr.read().decode()}")
-    return Run(seconds, usage.ru_maxrss / 1024.0)  # Linux reports KiB
+    with tempfile.TemporaryDirectory() as tmp:
+        report, errors = Path(tmp) / "report", Path(tmp) / "stderr"
+        with errors.open("wb") as stderr:
+            subprocess.run(
+                [sys.executable, "-S", "-c", _LAUNCHER, str(report), *argv],
+                cwd=cwd,
+                stdout=subprocess.DEVNULL,
+                stderr=stderr,
+                check=True,
+            )
+        seconds, maxrss_kib, status = report.read_text().split()
+        if status != "0":
+            sys.exit(f"{' '.join(argv)} failed ({status}):\n{errors.read_text()}")
+    return Run(float(seconds), int(maxrss_kib) / 1024.0)  # Linux reports KiB
 
 
 def side_by_side(cases: dict[str, list[str]], repeats: int, cwd: Path = ROOT) -> dict[str, Summary]:

@@ -31,13 +31,16 @@ def main() -> None:
     args = parser.parse_args()
 
     cli = console_script("handeye-pick")
+    convert = "convert --from ur --to euler --sequence xyz --angle-unit deg 0.4 0.1 0.3 0 3.14159 0"
+    point = (
+        "point --mode eye-to-hand --calibration config/calibration/EyeToHandTransform.yaml "
+        "--xyz 37.77 -145.92 1227.1"
+    )
     cases = {
         YARDSTICK: [sys.executable, "-c", "import numpy"],
         "handeye-pick --help": [cli, "--help"],
-        "handeye-pick convert": [cli, "convert", "--from", "ur", "--to", "euler"]
-        + ["--sequence", "xyz", "--angle-unit", "deg", "0.4", "0.1", "0.3", "0", "3.14159", "0"],
-        "handeye-pick point": [cli, "point", "--mode", "eye-to-hand", "--calibration"]
-        + ["config/calibration/EyeToHandTransform.yaml", "--xyz", "37.77", "-145.92", "1227.1"],
+        "handeye-pick convert": [cli, *convert.split()],
+        "handeye-pick point": [cli, *point.split()],
     }
     print(machine())
     print(f"{args.repeats} interleaved runs of each, after one warm-up round\n")

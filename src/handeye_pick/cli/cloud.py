@@ -13,7 +13,7 @@ from handeye_pick.cli.common import (
     add_robot_pose_args,
     camera_chain_from_args,
 )
-from handeye_pick.cloud import transform_points
+from handeye_pick.cloud import FloatArray, transform_points
 from handeye_pick.cloudio import CloudWriter, open_cloud
 from handeye_pick.geometry import metres_per, scale_translation
 
@@ -66,7 +66,7 @@ def run_cloud(args: argparse.Namespace) -> int:
     with open_cloud(args.input) as reader, CloudWriter(args.output, reader.layout) as writer:
         for xyz, rgb in reader.chunks():
             transform_points(xyz, T_base_cam, out=xyz)
-            missing += int(np.count_nonzero(np.isnan(xyz).any(axis=1)))
+            missing += _count_missing(xyz)
             writer.write(xyz, rgb)
         writer.commit()
     print(
@@ -74,3 +74,15 @@ def run_cloud(args: argparse.Namespace) -> int:
         f"robot base frame, {args.cloud_units}"
     )
     return 0
+
+
+def _count_missing(xyz: FloatArray) -> int:
+    """Points of an ``(n, 3)`` chunk with a NaN coordinate (no data).
+
+    Column by column: numpy's ``isnan(xyz).any(axis=1)`` reduces along the 3-long axis a row at a
+    time, about 15 times slower than this and slower than the transform itself.
+    """
+    nan = np.isnan(xyz[:, 0])
+    nan |= np.isnan(xyz[:, 1])
+    nan |= np.isnan(xyz[:, 2])
+    return int(np.count_nonzero(nan))
