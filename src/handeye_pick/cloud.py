@@ -23,15 +23,16 @@ FloatArray = NDArray[np.floating[Any]]
 """A float32 or float64 array; the dtype of a cloud is kept through every operation here."""
 
 
-JIT_AFTER_POINTS = 50_000_000
-"""Points a process transforms with numpy before it loads the numba kernel (ten Zivid 2+ clouds).
+JIT_AFTER_POINTS = 100_000_000
+"""Points a process transforms with numpy before it loads the numba kernel (20 Zivid 2+ clouds).
 
-Loading numba and its cached kernel costs a process about 0.3 to 0.5 s and 100 MiB; the kernel
-then saves about 5 ns a point over the numpy blocks (a Zivid 2+ cloud: 25 ms). Like renting
-until the rent paid would have bought: numpy until the time the kernel would have saved equals
-its load, so no process pays more than twice the best choice in hindsight, a one-off command
-never loads numba, and a process that transforms cloud after cloud runs at memory speed.
-``benchmarks/cloud_transform.py`` prints the break-even measured on the machine it runs on.
+Loading numba and the cached kernel costs a process time and memory (on the order of half a
+second and 130 MiB), after which the kernel saves a few ns a point over the numpy blocks.
+``benchmarks/cloud_transform.py`` measures both and prints the break-even. As when renting until
+the rent paid would have bought: numpy until the time the kernel would have saved is about its
+load, so a process never pays much more than twice the better choice in hindsight; a one-off
+command never loads numba, and a process that transforms cloud after cloud soon runs at memory
+speed.
 """
 
 _BLOCK_POINTS = 65_536
@@ -155,7 +156,7 @@ def transform_points(points: FloatArray, T: ArrayLike, out: FloatArray | None = 
         The points in frame a, same shape and dtype as ``points`` (``out`` when given). float32
         data is transformed in float32 arithmetic (relative error about 1e-7 of the coordinates).
 
-    Speed: numpy in blocks (about 5 x the time of ``np.copyto`` of the cloud) until this process
+    Speed: numpy in blocks (several times ``np.copyto`` of the cloud) until this process
     has transformed ``JIT_AFTER_POINTS`` points, then a numba kernel that runs in place at about
     the speed of the copy; the call that crosses the line imports numba (and compiles, once per
     machine). Out of place is a copy plus that.
