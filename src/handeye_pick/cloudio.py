@@ -279,41 +279,19 @@ def _open_npy(path: Path, file: io.BufferedReader, file_size: int) -> CloudReade
 
 class _PlyReader(CloudReader):
     def __init__(
-        self, path: Path, file: io.BufferedReader, layout: CloudLayout, record: np.dtype[Any]
+        self,
+        path: Path,
+        file: io.BufferedReader,
+        layout: CloudLayout,
+        record: np.dtype[Any],
+        parsed: NDArray[Any] | None = None,
     ):
+        """Binary records are read from ``file``; an ascii file's come ``parsed`` whole."""
         super().__init__(path, file, layout)
-        self._parsed: NDArray[Any] | None = None  # every record of an ascii file
-        self._scratch = np.empty(min(CHUNK_POINTS, layout.points), dtype=record)
-        self._next = 0
-
-    def parse_text(self, skip_lines: int) -> None:
-        """Parse the vertex lines of an ascii file, after ``skip_lines`` of earlier elements."""
-        text = io.TextIOWrapper(self._file, encoding="ascii")
-        try:
-            with warnings.catch_warnings():
-                # Blank lines are skipped, not counted as vertices; numpy warns it once did so.
-                warnings.filterwarnings("ignore", "Input line", UserWarning)
-                parsed = np.loadtxt(
-                    text,
-                    dtype=self._scratch.dtype,
-                    skiprows=skip_lines,
-                    max_rows=self.layout.points,
-                    comments=None,
-                    ndmin=1,
-                )
-        except (ValueError, UnicodeDecodeError) as exc:
-            reason = (str(exc).splitlines() or [type(exc).__name__])[0]
-            raise DetectionError(
-                f"read cloud {self.path}: not a readable PLY file (vertex data: {reason})"
-            ) from None
-        finally:
-            text.detach()  # the reader closes the file itself
-        if len(parsed) != self.layout.points:
-            raise DetectionError(
-                f"read cloud {self.path}: not a readable PLY file (its header declares "
-                f"{self.layout.points} vertices, the file holds {len(parsed)})"
-            )
         self._parsed = parsed
+        scratch_size = min(CHUNK_POINTS, layout.points) if parsed is None else 0
+        self._scratch = np.empty(scratch_size, dtype=record)
+        self._next = 0
 
     def _next_records(self, n: int) -> NDArray[Any]:
         if self._parsed is not None:
@@ -345,18 +323,46 @@ def _open_ply(path: Path, file: io.BufferedReader, file_size: int) -> CloudReade
     if vertex is None:
         raise DetectionError(f"read cloud {path}: PLY has no 'vertex' element")
     layout = _ply_layout(path, vertex)
+    if vertex.has_lists:
+        raise DetectionError(f"read cloud {path}: PLY vertices with list properties are not read")
     before = header.elements[: header.elements.index(vertex)]
     if header.byte_order is None:
-        reader = _PlyReader(path, file, layout, vertex.record_dtype("="))
-        reader.parse_text(skip_lines=sum(e.count for e in before))
-        return reader
-    if vertex.has_lists or any(e.has_lists for e in before):
+        record = vertex.record_dtype("=")
+        parsed = _parse_text(path, file, record, vertex.count, sum(e.count for e in before))
+        return _PlyReader(path, file, layout, record, parsed)
+    if any(e.has_lists for e in before):
         raise DetectionError(
-            f"read cloud {path}: binary PLY with list properties in or before the vertices is "
-            "not supported"
+            f"read cloud {path}: binary PLY with list properties before the vertices is not read"
         )
     file.seek(header.size + sum(e.count * e.record_dtype("<").itemsize for e in before))
     return _PlyReader(path, file, layout, vertex.record_dtype(header.byte_order))
+
+
+def _parse_text(
+    path: Path, file: io.BufferedReader, record: np.dtype[Any], count: int, skip_lines: int
+) -> NDArray[Any]:
+    """The ``count`` vertex lines of an ascii PLY, after ``skip_lines`` of earlier elements."""
+    text = io.TextIOWrapper(file, encoding="ascii")
+    try:
+        with warnings.catch_warnings():
+            # Blank lines are skipped, not counted as vertices; numpy warns it once did so.
+            warnings.filterwarnings("ignore", "Input line", UserWarning)
+            parsed: NDArray[Any] = np.loadtxt(
+                text, dtype=record, skiprows=skip_lines, max_rows=count, comments=None, ndmin=1
+            )
+    except (ValueError, UnicodeDecodeError) as exc:
+        reason = (str(exc).splitlines() or [type(exc).__name__])[0]
+        raise DetectionError(
+            f"read cloud {path}: not a readable PLY file (vertex data: {reason})"
+        ) from None
+    finally:
+        text.detach()  # the reader closes the file itself
+    if len(parsed) != count:
+        raise DetectionError(
+            f"read cloud {path}: not a readable PLY file (its header declares {count} vertices, "
+            f"the file holds {len(parsed)})"
+        )
+    return parsed
 
 
 def _ply_layout(path: Path, vertex: PlyElement) -> CloudLayout:

@@ -246,6 +246,18 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
             b"end_header\n",
             "no 'vertex' element",
         ),
+
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty list uchar int ids\nend_header\n1 2 3 2 7 8\n",
+            "vertices with list properties are not read",
+        ),
+        (
+            b"ply\nformat binary_little_endian 1.0\nelement face 1\n"
+            b"property list uchar int vertex_indices\nelement vertex 1\nproperty float x\n"
+            b"property float y\nproperty float z\nend_header\n" + bytes(1 + 12),
+            "list properties before the vertices is not read",
+        ),
     ],
     ids=[
         "empty",
@@ -256,6 +268,8 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
         "partial-colour",
         "float-colour",
         "no-vertex",
+        "vertex-list",
+        "binary-list-before-vertices",
     ],
 )
 def test_bad_ply(tmp_path: Path, content: bytes, message: str) -> None:
