@@ -260,7 +260,7 @@ def _open_npy(path: Path, file: io.BufferedReader, file_size: int) -> CloudReade
         raise DetectionError(f"read cloud {path}: not a readable .npy array ({exc})") from None
     if stored.kind != "f" or stored.itemsize not in (4, 8):
         raise DetectionError(f"read cloud {path}: expected float32 or float64 xyz, got {stored}")
-    if len(shape) not in (2, 3) or shape[-1] != 3:
+    if len(shape) not in (2, 3) or shape[-1] != 3 or min(shape) < 0:
         raise DetectionError(f"read cloud {path}: expected shape (H, W, 3) or (N, 3), got {shape}")
     needed = math.prod(shape) * stored.itemsize
     available = file_size - file.tell()

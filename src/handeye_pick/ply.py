@@ -128,7 +128,10 @@ def _parse_lines(lines: list[str]) -> tuple[str | None, tuple[PlyElement, ...]]:
         elif words[0] == "element" and len(words) == 3 and words[2].isdigit():
             elements.append((words[1], int(words[2]), []))
         elif words[0] == "property" and elements:
-            elements[-1][2].append(_parse_property(words, number))
+            prop = _parse_property(words, number)
+            if any(p.name == prop.name for p in elements[-1][2]):
+                raise ValueError(f"header line {number} repeats property {prop.name!r}")
+            elements[-1][2].append(prop)
         else:
             raise ValueError(f"header line {number} is not understood: {line.strip()[:80]!r}")
     if not seen_format:

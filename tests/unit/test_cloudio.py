@@ -246,7 +246,6 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
             b"end_header\n",
             "no 'vertex' element",
         ),
-
         (
             b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
             b"property float z\nproperty list uchar int ids\nend_header\n1 2 3 2 7 8\n",
@@ -257,6 +256,11 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
             b"property list uchar int vertex_indices\nelement vertex 1\nproperty float x\n"
             b"property float y\nproperty float z\nend_header\n" + bytes(1 + 12),
             "list properties before the vertices is not read",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty float x\nend_header\n1 2 3 4\n",
+            "repeats property 'x'",
         ),
     ],
     ids=[
@@ -270,6 +274,7 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
         "no-vertex",
         "vertex-list",
         "binary-list-before-vertices",
+        "repeated-property",
     ],
 )
 def test_bad_ply(tmp_path: Path, content: bytes, message: str) -> None:
@@ -437,6 +442,7 @@ def ply_claiming(path: Path, fmt: str, count: int, body: bytes, extra: str = "")
             r"declares shape \(1000000, 1000000, 3\), 12000000000000 bytes, but only 48 bytes",
         ),
         (lambda d: npy_claiming(d / "short.npy", (5, 3)), "60 bytes, but only 48 bytes"),
+        (lambda d: npy_claiming(d / "negative.npy", (-4, 3)), r"got \(-4, 3\)"),
         (
             lambda d: ply_claiming(d / "huge.ply", "binary_little_endian", 10**10, bytes(36)),
             "declares 10000000000 vertex records, which need at least 120000000000 bytes",
@@ -460,9 +466,17 @@ def ply_claiming(path: Path, fmt: str, count: int, body: bytes, extra: str = "")
             "no end_header line in its first 65536 bytes",
         ),
     ],
-    ids=["npy-1e12", "npy-short", "ply-1e10", "ascii-ply-1e10", "ply-1e10-faces", "no-end-header"],
+    ids=[
+        "npy-1e12",
+        "npy-short",
+        "npy-negative",
+        "ply-1e10",
+        "ascii-ply-1e10",
+        "ply-1e10-faces",
+        "no-end-header",
+    ],
 )
-def test_header_claiming_more_than_the_file_holds_is_refused(
+def test_hostile_header_is_refused_before_anything_is_allocated(
     tmp_path: Path, make: Any, message: str
 ) -> None:
     path = make(tmp_path)
