@@ -23,11 +23,11 @@ FloatArray = NDArray[np.floating[Any]]
 """A float32 or float64 array; the dtype of a cloud is kept through every operation here."""
 
 
-JIT_AFTER_POINTS = 100_000_000
-"""Points a process transforms with numpy before it loads the numba kernel (20 Zivid 2+ clouds).
+JIT_AFTER_POINTS = 150_000_000
+"""Points a process transforms with numpy before it loads the numba kernel (30 Zivid 2+ clouds).
 
-Loading numba and the cached kernel costs a process time and memory (on the order of half a
-second and 130 MiB), after which the kernel saves a few ns a point over the numpy blocks.
+Loading numba and the cached kernel costs a process time and memory (about a second and 130 MiB
+on a 2-core machine), after which the kernel saves a few ns a point over the numpy blocks.
 ``benchmarks/cloud_transform.py`` measures both and prints the break-even. As when renting until
 the rent paid would have bought: numpy until the time the kernel would have saved is about its
 load, so a process never pays much more than twice the better choice in hindsight; a one-off
