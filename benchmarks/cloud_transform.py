@@ -39,7 +39,6 @@ from handeye_pick.cloud import transform_points
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec
 
 TARGET_RATIO = {np.dtype(np.float32): 1.5, np.dtype(np.float64): 1.1}
-LOAD_REPEATS = 5
 
 _IMPORT_ONLY = "import numpy as np; from handeye_pick import cloud"
 _LOAD_KERNEL = (
@@ -109,10 +108,10 @@ def bench_dtype(args: argparse.Namespace, dtype: type) -> dict[str, float]:
     return medians
 
 
-def jit_load_cost() -> tuple[float, float]:
+def jit_load_cost(repeats: int) -> tuple[float, float]:
     """Median extra seconds and MiB of a process that loads the numba kernel (fresh processes)."""
     extra_s, extra_mib = [], []
-    for _ in range(LOAD_REPEATS):
+    for _ in range(repeats):
         base = run_once([sys.executable, "-c", _IMPORT_ONLY])
         loaded = run_once([sys.executable, "-c", _LOAD_KERNEL])
         extra_s.append(loaded.seconds - base.seconds)
@@ -126,6 +125,7 @@ def main() -> None:
     parser.add_argument("--rows", type=int, default=2048)
     parser.add_argument("--cols", type=int, default=2448)
     parser.add_argument("--nan-fraction", type=float, default=0.2)
+    parser.add_argument("--load-repeats", type=int, default=5, help="fresh processes timed")
     args = parser.parse_args()
 
     import numba
@@ -136,7 +136,7 @@ def main() -> None:
     )
     threshold = cloud.JIT_AFTER_POINTS  # bench_dtype sets it to 0
     results = {np.dtype(d): bench_dtype(args, d) for d in (np.float32, np.float64)}
-    load_s, load_mib = jit_load_cost()
+    load_s, load_mib = jit_load_cost(args.load_repeats)
     points = args.rows * args.cols
 
     print()
@@ -147,7 +147,7 @@ def main() -> None:
         print(f"{dtype.name} in place: {ratio:.2f} x copy, {verdict} the target of {target} x")
     print(
         f"loading the numba kernel costs a process {load_s * 1e3:.0f} ms and {load_mib:.0f} MiB "
-        f"(median of {LOAD_REPEATS} fresh processes)"
+        f"(median of {args.load_repeats} fresh processes)"
     )
     for dtype, medians in results.items():
         saved_s = (medians["numpy kernel, in place"] - medians["numba kernel, in place"]) / 1e3

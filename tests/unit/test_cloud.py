@@ -331,6 +331,8 @@ def test_benchmark_script_runs_on_a_tiny_cloud() -> None:
             "5",
             "--repeats",
             "2",
+            "--load-repeats",
+            "1",
         ],
         capture_output=True,
         text=True,
