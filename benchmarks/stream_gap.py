@@ -85,14 +85,10 @@ def main() -> int:
         receive.disconnect()
 
     gaps_ms = np.diff(np.array(arrivals)) * 1e3
-    print(
-        f"stream gap at 500 Hz over {args.seconds:.0f} s, {len(arrivals)} packages, "
-        f"{moves} moves (moveL 0.15 m / moveJ back):"
-    )
-    print(
-        f"  median {np.median(gaps_ms):.3f} ms, p99 {np.percentile(gaps_ms, 99):.3f} ms, "
-        f"max {np.max(gaps_ms):.3f} ms"
-    )
+    print(f"stream gap at 500 Hz over {args.seconds:.0f} s, {len(arrivals)} packages, "
+          f"{moves} moves (moveL 0.15 m / moveJ back):")
+    print(f"  median {np.median(gaps_ms):.3f} ms, p99 {np.percentile(gaps_ms, 99):.3f} ms, "
+          f"max {np.max(gaps_ms):.3f} ms")
     return 0
 
 
