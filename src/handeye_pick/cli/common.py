@@ -21,8 +21,6 @@ from handeye_pick.calibration import (
     load_hand_eye,
     read_robot_pose_file,
 )
-from handeye_pick.cloud import pick_point
-from handeye_pick.cloudio import read_cloud
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform, ur_pose_to_matrix
 
@@ -167,6 +165,10 @@ def camera_point_mm_from_args(args: argparse.Namespace) -> NDArray[np.float64] |
         return point
     if args.pixel is None:
         raise InputError(f"--cloud {args.cloud} needs --pixel COL ROW to choose the point")
+    # Imported here: the cloud modules serve --cloud only, not --xyz or convert.
+    from handeye_pick.cloud import pick_point
+    from handeye_pick.cloudio import read_cloud
+
     col, row = args.pixel
     return pick_point(read_cloud(args.cloud).xyz, col, row)
 
