@@ -2,8 +2,12 @@
 
 Frames: `base` is the controller's base frame, `flange` the tool flange, `tcp` the flange moved by
 the active TCP offset (T_flange_tcp, set on the pendant or by setTcp). Poses are UR vectors
-[x, y, z, rx, ry, rz] (m, rad); joints q are 6 angles (rad). Tracking is perfect: target and
-actual values are the same.
+[x, y, z, rx, ry, rz] (m, rad); joints q are 6 angles (rad).
+
+Target and actual: `q` is the target (the trajectory the controller commands), `actual_q` what the
+encoders report. Without `tracking` they are the same array. With it the actual joints follow the
+target TRACKING_LAG_CYCLES control cycles late and carry Gaussian measurement noise of
+JOINT_NOISE_RAD (standard deviation), see README.md for the magnitudes and their sources.
 
 moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal profile over the
 translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
@@ -29,6 +33,14 @@ Vector = NDArray[np.float64]
 # The TCP must move at least this far (m) for moveL's speed to mean m/s; below it, rad/s.
 _MIN_TRANSLATION_M = 1e-6
 
+TRACKING_LAG_CYCLES = 2
+"""With tracking, the actual joints are where the target was this many control cycles ago."""
+JOINT_NOISE_RAD = 1e-5
+"""With tracking, standard deviation of the measurement noise on each actual joint angle (about
+0.01 mm at the TCP of an 0.85 m arm, a third of the UR5e's published +-0.03 mm repeatability)."""
+STEADY_CYCLES = 2
+"""is_steady(): the target has not moved for this many cycles and the actual joints caught up."""
+
 
 class UnreachableError(Exception):
     """A motion target or a point on the way has no joint solution within the limits."""
@@ -44,6 +56,8 @@ class Motion:
     """
 
     index: int
+    kind: str  # the command that started it: moveL, moveJ, moveL_FK, moveJ_IK
+    started_s: float  # controller time
     linear: bool
     distance: float
     speed: float
@@ -83,17 +97,50 @@ class Motion:
         return max(0.0, self.stop_speed - self.stop_decel * (self.elapsed_s - self.stop_at_s))
 
     @property
+    def braking(self) -> bool:
+        return self.stop_at_s is not None
+
+    @property
     def finished(self) -> bool:
         if self.stop_at_s is None:
             return self.elapsed_s >= self.duration_s
         return self.path_speed() <= 0.0 or self.path_fraction() >= 1.0
 
 
+@dataclass(frozen=True)
+class MotionEnd:
+    """How and when (controller time) a motion ended: `reason` is "reached" (at its target),
+    "stopped" (braked to rest by stopL/stopJ/speedStop) or why it was halted at once."""
+
+    motion: Motion
+    end_s: float
+    reason: str
+    detail: dict[str, float] | None = None  # watchdog stops: last update time, minimum frequency
+
+
+class Tracking:
+    """Actual joints: the target TRACKING_LAG_CYCLES cycles late, plus measurement noise."""
+
+    def __init__(self, q: Vector, seed: int):
+        self._history = [q.copy() for _ in range(TRACKING_LAG_CYCLES + 1)]
+        self._rng = np.random.default_rng(seed)
+
+    def update(self, q_target: Vector) -> tuple[Vector, Vector]:
+        """One cycle: returns (servo position, measured position), both in rad."""
+        self._history = [*self._history[1:], q_target.copy()]
+        servo = self._history[0]
+        return servo, servo + self._rng.normal(0.0, JOINT_NOISE_RAD, 6)
+
+
 class Arm:
-    """Joint state and motion model of one simulated UR arm (see module docstring)."""
+    """Joint state and motion model of one simulated UR arm (see module docstring).
+
+    The controller calls `advance` once per control cycle with the cycle's controller time; motions
+    that end are queued in `ended` for the controller's motion record.
+    """
 
     def __init__(self, model: kin.URModel, q: Vector, tcp_offset: Vector, speed_factor: float,
-                 instant: bool):
+                 instant: bool, tracking_seed: int | None = None):
         if not kin.within_limits(model, q):
             raise ValueError(f"initial joints {q.tolist()} are outside the {model.name} limits")
         self.model = model
@@ -105,23 +152,47 @@ class Arm:
         self.instant = instant
         self.payload_kg = 0.0
         self.payload_cog_m = np.zeros(3)
+        self.payload_inertia = np.zeros(6)  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz (kg m^2)
         self.motion: Motion | None = None
         self.motion_count = 0
+        self.ended: list[MotionEnd] = []
+        self.now_s = 0.0  # controller time of the current cycle
+        self._tracking = None if tracking_seed is None else Tracking(self.q, tracking_seed)
+        self._servo_q = self.q  # where the joints are, noise-free (lags the target with tracking)
+        self._still_cycles = STEADY_CYCLES
+        self.actual_q = self.q
+        self.actual_qd = self.qd
         self._update_poses()
+        self._update_actual()
         self.tcp_speed = np.zeros(6)
+        self.elbow_velocity = np.zeros(3)
 
     # --- derived poses ---------------------------------------------------------------------
 
     def _update_poses(self) -> None:
+        """Target poses from the target joints."""
         self.T_base_flange = kin.forward(self.model, self.q)
         self.T_base_tcp = kin.tcp_from_flange(self.T_base_flange, self.tcp_offset)
         self.flange_pose = kin.matrix_to_pose(self.T_base_flange)
         self.tcp_pose = kin.matrix_to_pose(self.T_base_tcp)
 
+    def _update_actual(self) -> None:
+        """Actual poses and elbow from the measured joints (the target's without tracking)."""
+        if self._tracking is None:
+            self.actual_flange_pose = self.flange_pose
+            self.actual_tcp_pose = self.tcp_pose
+        else:
+            T_base_flange = kin.forward(self.model, self.actual_q)
+            self.actual_flange_pose = kin.matrix_to_pose(T_base_flange)
+            self.actual_tcp_pose = kin.matrix_to_pose(
+                kin.tcp_from_flange(T_base_flange, self.tcp_offset))
+        self.elbow_position = kin.elbow_position(self.model, self.actual_q)
+
     def set_tcp(self, tcp_offset: Vector) -> None:
         """Make `tcp_offset` (T_flange_tcp as a UR vector) the active TCP."""
         self.tcp_offset = tcp_offset.astype(np.float64)
         self._update_poses()
+        self._update_actual()
 
     def tcp_from_q(self, q: Vector, tcp_offset: Vector | None = None) -> Vector:
         """T_base_tcp at joints q, with the active TCP unless one is given."""
@@ -138,9 +209,15 @@ class Arm:
         T_base_flange = kin.flange_from_tcp(kin.pose_to_matrix(tcp_pose), self.tcp_offset)
         return kin.reachable(self.model, T_base_flange)
 
+    @property
+    def steady(self) -> bool:
+        """URScript is_steady(): fully at rest, i.e. the target has not moved for STEADY_CYCLES
+        cycles and the actual joints have caught up with it."""
+        return self._still_cycles >= STEADY_CYCLES and np.array_equal(self._servo_q, self.q)
+
     # --- motions ---------------------------------------------------------------------------
 
-    def move_linear(self, tcp_pose: Vector, speed: float, accel: float) -> Motion:
+    def move_linear(self, tcp_pose: Vector, speed: float, accel: float, kind: str) -> Motion:
         """Start a straight-line TCP move; raises UnreachableError if the target is unreachable."""
         q_target = self.ik_tcp(tcp_pose)
         if q_target is None:
@@ -152,30 +229,35 @@ class Arm:
         else:
             R_rel = self.T_base_tcp[:3, :3].T @ T_target[:3, :3]
             distance = float(np.linalg.norm(Rotation.from_matrix(R_rel).as_rotvec()))
-        return self._start(True, distance, speed, accel, q_target, T_target)
+        return self._start(kind, True, distance, speed, accel, q_target, T_target)
 
-    def move_joint(self, q_target: Vector, speed: float, accel: float) -> Motion:
+    def move_joint(self, q_target: Vector, speed: float, accel: float, kind: str) -> Motion:
         """Start a joint-space move; raises UnreachableError if q_target is outside the limits."""
         if not kin.within_limits(self.model, q_target):
             raise UnreachableError(f"moveJ target {np.round(q_target, 6).tolist()} is outside "
                                    f"the {self.model.name} joint limits")
         distance = float(np.max(np.abs(q_target - self.q)))
-        return self._start(False, distance, speed, accel, q_target, self.tcp_from_q(q_target))
+        return self._start(kind, False, distance, speed, accel, q_target,
+                           self.tcp_from_q(q_target))
 
-    def _start(self, linear: bool, distance: float, speed: float, accel: float, q_target: Vector,
-               T_target: Vector) -> Motion:
+    def _start(self, kind: str, linear: bool, distance: float, speed: float, accel: float,
+               q_target: Vector, T_target: Vector) -> Motion:
         if speed <= 0.0 or accel <= 0.0:
             raise UnreachableError(f"speed {speed} and acceleration {accel} must be > 0 to move")
+        self.halt("replaced by a new move")
         self.motion_count += 1
         self.motion = Motion(
-            index=self.motion_count, linear=linear, distance=distance, speed=speed, accel=accel,
+            index=self.motion_count, kind=kind, started_s=self.now_s, linear=linear,
+            distance=distance, speed=speed, accel=accel,
             duration_s=kin.trapezoid(distance, speed, accel), q_start=self.q.copy(),
             q_target=q_target, T_base_tcp_start=self.T_base_tcp.copy(), T_base_tcp_target=T_target,
         )
         return self.motion
 
-    def halt(self) -> None:
-        """Stop where the arm is now."""
+    def halt(self, reason: str, detail: dict[str, float] | None = None) -> None:
+        """Stop where the arm is now; `reason` and `detail` go to the motion record."""
+        if self.motion is not None:
+            self.ended.append(MotionEnd(self.motion, self.now_s, reason, detail))
         self.motion = None
         self.qd = np.zeros(6)
         self.tcp_speed = np.zeros(6)
@@ -190,7 +272,7 @@ class Arm:
             return None
         speed = motion.path_speed()
         if self.instant or decel <= 0.0 or speed <= 0.0:
-            self.halt()
+            self.halt("stopped")
             return None
         motion.stop_from = motion.path_fraction()
         motion.stop_speed = speed
@@ -198,14 +280,25 @@ class Arm:
         motion.stop_at_s = motion.elapsed_s
         return motion
 
-    def advance(self, dt_s: float) -> Motion | None:
-        """Advance the motion by dt_s of wall time; returns the motion advanced (None if idle).
+    def advance(self, dt_s: float, now_s: float) -> Motion | None:
+        """One control cycle of dt_s wall time ending at controller time now_s; returns the
+        motion advanced (None if idle).
 
         Raises UnreachableError (and halts) when a point on a linear path has no IK solution.
         """
+        self.now_s = now_s
         motion = self.motion
-        if motion is None:
-            return None
+        q_before = self.q
+        try:
+            if motion is not None:
+                self._advance_motion(motion, dt_s)
+        finally:
+            self._still_cycles = 0 if self.motion is not None or not np.array_equal(
+                self.q, q_before) else self._still_cycles + 1
+            self._track(dt_s)
+        return motion
+
+    def _advance_motion(self, motion: Motion, dt_s: float) -> None:
         if self.instant:
             motion.elapsed_s += motion.duration_s / 2  # done within two cycles
         else:
@@ -220,8 +313,21 @@ class Arm:
             self.qd = (self.q - q_before) / dt_s
             self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
         if motion.finished:
-            self.halt()
-        return motion
+            self.halt("stopped" if motion.braking else "reached")
+
+    def _track(self, dt_s: float) -> None:
+        """Measured joints, poses, elbow and speeds for this cycle."""
+        servo_before = self._servo_q
+        elbow_before = self.elbow_position
+        if self._tracking is None:
+            self._servo_q = self.actual_q = self.q
+            self.actual_qd = self.qd
+        else:
+            self._servo_q, self.actual_q = self._tracking.update(self.q)
+            self.actual_qd = (self._servo_q - servo_before) / dt_s if dt_s > 0 else np.zeros(6)
+        self._update_actual()
+        if dt_s > 0:
+            self.elbow_velocity = (self.elbow_position - elbow_before) / dt_s
 
     def _q_along(self, motion: Motion, s: float) -> Vector:
         if not motion.linear:
@@ -230,7 +336,7 @@ class Arm:
         T_base_flange = kin.flange_from_tcp(T_base_tcp, self.tcp_offset)
         q = kin.inverse(self.model, T_base_flange, self.q)
         if q is None:
-            self.halt()
+            self.halt(f"no IK solution {s:.0%} of the way (protective stop)")
             raise UnreachableError(
                 f"moveL path point {kin.matrix_to_pose(T_base_tcp).round(6).tolist()} "
                 f"({s:.0%} of the way) has no IK solution within the joint limits"

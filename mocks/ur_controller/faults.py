@@ -1,9 +1,9 @@
 """Fault specs: `FAULT@WHEN` as `--inject` and `SimulatedController.inject` take them.
 
 FAULT is one of protective-stop, emergency-stop, safeguard-stop, drop-connection, stall:SECONDS,
-stop-program, remote-control-off, refuse-start, slow:SECONDS. WHEN is `now` (the default when
-`@WHEN` is left out) or `move:K:FRACTION`: during the K-th motion command (counted from 1), once
-FRACTION (0..1) of that motion's duration has elapsed.
+stop-program, remote-control-off, refuse-start, refuse-move, slow:SECONDS. WHEN is `now` (the
+default when `@WHEN` is left out) or `move:K:FRACTION`: during the K-th motion command (counted
+from 1), once FRACTION (0..1) of that motion's duration has elapsed.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ PLAIN_FAULTS = (
     "stop-program",
     "remote-control-off",
     "refuse-start",
+    "refuse-move",
 )
 TIMED_FAULTS = ("stall", "slow")  # take `:SECONDS`
 
