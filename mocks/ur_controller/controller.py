@@ -477,7 +477,7 @@ class Controller:
                 except Exception:
                     log.exception("control loop cycle failed")
             cycle = due
-            self._rtde.cycle_done()  # the cycle's RTDE package goes out now, as on a real UR
+            self._rtde.cycle_done(due)  # its RTDE packages go out now, as on a real UR
 
     def _cycle(self, dt_s: float, time_s: float) -> None:
         self._time_s = time_s

@@ -15,6 +15,7 @@ import logging
 import socket
 import struct
 import threading
+from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Protocol
 
@@ -25,6 +26,7 @@ log = logging.getLogger("mocks.ur_controller")
 
 RTDE_PORT = 30004
 PROTOCOL_VERSION = 2  # the only RTDE protocol version served; any other request is refused
+RECENT_CYCLES = 32  # published cycles kept for late senders (64 ms at 500 Hz)
 STREAM_FALLBACK_S = 0.1
 """A sender that sees no control cycle this long after one was due sends the latest outputs
 anyway: a starved control loop slows the stream but never pauses it towards ur_rtde's 2.5 s."""
@@ -115,7 +117,8 @@ class RtdeServer:
         self._profile = profile
         self._claims: dict[str, _Connection] = {}
         self._claims_lock = threading.Lock()
-        self._cycle = 0  # control cycles published so far
+        self._cycle = 0  # number (controller time / period) of the latest published cycle
+        self._recent: deque[tuple[int, Mapping[str, object]]] = deque(maxlen=RECENT_CYCLES)
         self._cycle_done = threading.Condition()
         self.listener = Listener(host, RTDE_PORT, "rtde", self._serve)
 
@@ -236,43 +239,57 @@ class RtdeServer:
             index += count
         self._backend.write_inputs(fields)
 
-    def cycle_done(self) -> None:
-        """Wake the senders: called by the control loop right after each cycle's publish.
+    def cycle_done(self, cycle: int | None = None) -> None:
+        """Wake the senders: called by the control loop right after each cycle's publish, with
+        the cycle's number in controller time (default: the previous number + 1).
 
-        Only notifies; the senders send on their own threads, so a slow client socket never
-        holds up the control loop.
+        Keeps that cycle's outputs for the senders and only notifies; the senders send on their
+        own threads, so a slow client socket never holds up the control loop.
         """
         with self._cycle_done:
-            self._cycle += 1
+            self._cycle = self._cycle + 1 if cycle is None else cycle
+            self._recent.append((self._cycle, self._backend.latest_outputs()))
             self._cycle_done.notify_all()
 
-    def _wait_for_cycle(self, conn: _Connection, due: int, timeout_s: float) -> int:
-        """Wait until control cycle ``due`` is published, the connection closes or ``timeout_s``
-        passes; returns the number of the latest published cycle."""
+    def _wait_for_cycle(self, conn: _Connection, after: int,
+                        timeout_s: float) -> list[tuple[int, Mapping[str, object]]]:
+        """Wait until a cycle later than ``after`` is published, the connection closes or
+        ``timeout_s`` passes; returns the recent cycles later than ``after``, oldest first."""
         with self._cycle_done:
             self._cycle_done.wait_for(
-                lambda: self._cycle >= due or conn.closed.is_set(), timeout=timeout_s
+                lambda: self._cycle > after or conn.closed.is_set(), timeout=timeout_s
             )
-            return self._cycle
+            return [(n, outputs) for n, outputs in self._recent if n > after]
 
     def _stream(self, conn: _Connection) -> None:
-        """Send the output recipe after every Nth control cycle until the connection closes.
+        """Send the output recipe of every Nth control cycle until the connection closes.
 
         N = control loop frequency / requested frequency, rounded, at least 1: on e-Series a
-        500 Hz client gets every cycle, a 125 Hz one every 4th.
+        500 Hz client gets every cycle, a 125 Hz one the cycles whose number is a multiple of 4.
+        A package whose cycle was skipped (the loop ran late) is skipped too, as a busy real
+        controller skips packages; a late sender sends the newest due cycle, never a cycle out of
+        step. With no cycle at all for a while it resends the latest outputs (see
+        STREAM_FALLBACK_S).
         """
         cycle_hz = self._profile.cycle_hz
         every = max(1, round(cycle_hz / conn.frequency_hz))
         timeout_s = every / cycle_hz + STREAM_FALLBACK_S
-        cycle = self._cycle
+        seen = self._cycle
         while not conn.closed.is_set():
-            cycle = self._wait_for_cycle(conn, (cycle // every + 1) * every, timeout_s)
+            new = self._wait_for_cycle(conn, seen, timeout_s)
             if conn.closed.is_set():
                 return
+            due = [outputs for n, outputs in new if n % every == 0]
+            if new:
+                seen = new[-1][0]
+                if not due:
+                    continue
+                outputs = due[-1]
+            else:
+                outputs = self._backend.latest_outputs()  # no cycle came: the loop is starved
             recipe = conn.output
             if recipe is None or not conn.streaming.is_set() or self._backend.stream_stalled():
                 continue
-            outputs = self._backend.latest_outputs()
             body = recipe.struct.pack(1, *flatten([outputs[name] for name in recipe.names]))
             try:
                 conn.send(package(b"U", body))
