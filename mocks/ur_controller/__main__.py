@@ -53,7 +53,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="run motions this many times faster than real time")
     speed.add_argument("--instant", action="store_true", help="motions end within two cycles")
     parser.add_argument("--tracking", action="store_true",
-                        help="actual joints lag the target by 2 cycles and carry measurement "
+                        help="actual joints lag the target by 3 cycles and carry measurement "
                              "noise (default: actual == target exactly)")
     parser.add_argument("--seed", type=int, default=0, help="noise seed for --tracking")
     parser.add_argument("--record", metavar="FILE", help="append commands as JSON lines")
@@ -128,11 +128,9 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _on_signal)
     try:
         ctl.start()
-        profile = ctl.profile
-        ports = "rtde=30004" + (" dashboard=29999" if profile.dashboard else "") + (
-            " script=30003" if profile.script_port else "")
-        print(f"ready host={ctl.host} profile={profile.name} version={profile.version_text} "
-              f"model={ctl.model_name} {ports}", flush=True)
+        ports = " ".join(f"{name}={port}" for name, port in ctl.ports.items())
+        print(f"ready host={ctl.host} profile={ctl.profile.name} "
+              f"version={ctl.profile.version_text} model={ctl.model_name} {ports}", flush=True)
         if args.serve_stdio:
             _serve_stdio(ctl)
         else:

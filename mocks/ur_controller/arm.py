@@ -33,7 +33,7 @@ Vector = NDArray[np.float64]
 # The TCP must move at least this far (m) for moveL's speed to mean m/s; below it, rad/s.
 _MIN_TRANSLATION_M = 1e-6
 
-TRACKING_LAG_CYCLES = 2
+TRACKING_LAG_CYCLES = 3
 """With tracking, the actual joints are where the target was this many control cycles ago."""
 JOINT_NOISE_RAD = 1e-5
 """With tracking, standard deviation of the measurement noise on each actual joint angle (about
@@ -78,33 +78,52 @@ class Motion:
         """Fraction of the move's planned duration elapsed, 0..1 (for move:K:FRACTION)."""
         return 1.0 if self.duration_s <= 0.0 else min(1.0, self.elapsed_s / self.duration_s)
 
+    def planned(self, t: float) -> tuple[float, float]:
+        """(path fraction, path speed) of the unstopped trapezoid at motion time t."""
+        if t >= self.duration_s:
+            return 1.0, 0.0
+        peak = min(self.speed, math.sqrt(self.distance * self.accel))
+        speed = max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
+        return kin.trapezoid_fraction(t, self.distance, self.speed, self.accel), speed
+
+    @property
+    def braking(self) -> bool:
+        """A stop has begun (its braking starts at motion time stop_at_s)."""
+        return self.stop_at_s is not None and self.elapsed_s > self.stop_at_s
+
     def path_fraction(self) -> float:
         """Fraction of the path covered at elapsed_s, 0..1."""
-        if self.stop_at_s is None:
-            if self.elapsed_s >= self.duration_s:
-                return 1.0
-            return kin.trapezoid_fraction(self.elapsed_s, self.distance, self.speed, self.accel)
+        if self.stop_at_s is None or self.elapsed_s <= self.stop_at_s:
+            return self.planned(self.elapsed_s)[0]
         t = min(self.elapsed_s - self.stop_at_s, self.stop_speed / self.stop_decel)
         covered = self.stop_speed * t - 0.5 * self.stop_decel * t * t
         return min(1.0, self.stop_from + covered / self.distance)
 
     def path_speed(self) -> float:
         """Speed along the path at elapsed_s (motion units per second of motion time)."""
-        if self.stop_at_s is None:
-            peak = min(self.speed, math.sqrt(self.distance * self.accel))
-            t = self.elapsed_s
-            return max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
+        if self.stop_at_s is None or self.elapsed_s <= self.stop_at_s:
+            return self.planned(self.elapsed_s)[1]
         return max(0.0, self.stop_speed - self.stop_decel * (self.elapsed_s - self.stop_at_s))
 
-    @property
-    def braking(self) -> bool:
-        return self.stop_at_s is not None
+    def stop(self, at_s: float, decel: float) -> None:
+        """Brake at `decel` from motion time `at_s` on (which may lie a cycle ahead)."""
+        self.stop_from, self.stop_speed = self.planned(at_s)
+        self.stop_decel = decel
+        self.stop_at_s = at_s
+
+    def end_time(self) -> float:
+        """Motion time at which the arm comes to rest: the trapezoid's end, or a stop's."""
+        if self.stop_at_s is None:
+            return self.duration_s
+        v, a = self.stop_speed, self.stop_decel
+        remaining = (1.0 - self.stop_from) * self.distance
+        if v * v / (2.0 * a) <= remaining:
+            return self.stop_at_s + v / a
+        return self.stop_at_s + (v - math.sqrt(v * v - 2.0 * a * remaining)) / a  # target first
 
     @property
     def finished(self) -> bool:
-        if self.stop_at_s is None:
-            return self.elapsed_s >= self.duration_s
-        return self.path_speed() <= 0.0 or self.path_fraction() >= 1.0
+        return self.elapsed_s >= self.end_time()
 
 
 @dataclass(frozen=True)
@@ -140,7 +159,7 @@ class Arm:
     """
 
     def __init__(self, model: kin.URModel, q: Vector, tcp_offset: Vector, speed_factor: float,
-                 instant: bool, tracking_seed: int | None = None):
+                 instant: bool, cycle_s: float, tracking_seed: int | None = None):
         if not kin.within_limits(model, q):
             raise ValueError(f"initial joints {q.tolist()} are outside the {model.name} limits")
         self.model = model
@@ -150,6 +169,7 @@ class Arm:
         self.speed_factor = speed_factor
         self.speed_slider = 1.0  # pendant speed slider (0..1), set over RTDE by the IO interface
         self.instant = instant
+        self.cycle_s = cycle_s  # control period
         self.payload_kg = 0.0
         self.payload_cog_m = np.zeros(3)
         self.payload_inertia = np.zeros(6)  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz (kg m^2)
@@ -157,6 +177,7 @@ class Arm:
         self.motion_count = 0
         self.ended: list[MotionEnd] = []
         self.now_s = 0.0  # controller time of the current cycle
+        self._advanced_s = 0.0  # controller time of the last advance
         self._tracking = None if tracking_seed is None else Tracking(self.q, tracking_seed)
         self._servo_q = self.q  # where the joints are, noise-free (lags the target with tracking)
         self._still_cycles = STEADY_CYCLES
@@ -211,9 +232,10 @@ class Arm:
 
     @property
     def steady(self) -> bool:
-        """URScript is_steady(): fully at rest, i.e. the target has not moved for STEADY_CYCLES
-        cycles and the actual joints have caught up with it."""
-        return self._still_cycles >= STEADY_CYCLES and np.array_equal(self._servo_q, self.q)
+        """URScript is_steady(): fully at rest, i.e. no motion, the target has not moved for
+        STEADY_CYCLES cycles and the actual joints have caught up with it."""
+        return (self.motion is None and self._still_cycles >= STEADY_CYCLES
+                and np.array_equal(self._servo_q, self.q))
 
     # --- motions ---------------------------------------------------------------------------
 
@@ -254,35 +276,46 @@ class Arm:
         )
         return self.motion
 
-    def halt(self, reason: str, detail: dict[str, float] | None = None) -> None:
-        """Stop where the arm is now; `reason` and `detail` go to the motion record."""
+    def halt(self, reason: str, detail: dict[str, float] | None = None,
+             at_s: float | None = None) -> None:
+        """Stop where the arm is now; `reason`, `detail` and the controller time the stop took
+        effect (`at_s`, default now) go to the motion record."""
         if self.motion is not None:
-            self.ended.append(MotionEnd(self.motion, self.now_s, reason, detail))
+            end_s = self.now_s if at_s is None else max(at_s, self.motion.started_s)
+            self._rest(MotionEnd(self.motion, end_s, reason, detail))
+
+    def _rest(self, end: MotionEnd) -> None:
+        self.ended.append(end)
         self.motion = None
         self.qd = np.zeros(6)
         self.tcp_speed = np.zeros(6)
 
     def decelerate(self, decel: float) -> Motion | None:
-        """Brake along the path at `decel` (the motion's units per s^2), as stopl/stopj do.
+        """Brake along the path at `decel` (the motion's units per s^2), as stopl/stopj do,
+        from this cycle's controller time on.
 
         Returns the motion while it is still braking, None when the arm is already still.
         """
         motion = self.motion
         if motion is None:
             return None
-        speed = motion.path_speed()
-        if self.instant or decel <= 0.0 or speed <= 0.0:
+        # The motion was last advanced to the previous cycle; the braking begins at this one.
+        at_s = motion.elapsed_s + self._motion_time(self.now_s - self._advanced_s, motion)
+        if self.instant or decel <= 0.0 or motion.planned(at_s)[1] <= 0.0:
             self.halt("stopped")
             return None
-        motion.stop_from = motion.path_fraction()
-        motion.stop_speed = speed
-        motion.stop_decel = decel
-        motion.stop_at_s = motion.elapsed_s
+        motion.stop(at_s, decel)
         return motion
+
+    def _motion_time(self, wall_s: float, motion: Motion) -> float:
+        """Motion time in `wall_s` of controller time: never before the motion started."""
+        wall_s = min(wall_s, self.now_s - motion.started_s)
+        return max(0.0, wall_s) * self.speed_factor * self.speed_slider
 
     def advance(self, dt_s: float, now_s: float) -> Motion | None:
         """One control cycle of dt_s wall time ending at controller time now_s; returns the
-        motion advanced (None if idle).
+        motion advanced (None if idle). A motion moves from the cycle after the one that
+        started it.
 
         Raises UnreachableError (and halts) when a point on a linear path has no IK solution.
         """
@@ -293,6 +326,7 @@ class Arm:
             if motion is not None:
                 self._advance_motion(motion, dt_s)
         finally:
+            self._advanced_s = now_s
             self._still_cycles = 0 if self.motion is not None or not np.array_equal(
                 self.q, q_before) else self._still_cycles + 1
             self._track(dt_s)
@@ -302,7 +336,7 @@ class Arm:
         if self.instant:
             motion.elapsed_s += motion.duration_s / 2  # done within two cycles
         else:
-            motion.elapsed_s += dt_s * self.speed_factor * self.speed_slider
+            motion.elapsed_s += self._motion_time(dt_s, motion)
         s = motion.path_fraction()
         q_new = motion.q_target if s >= 1.0 else self._q_along(motion, s)
         T_tcp_before = self.T_base_tcp
@@ -313,7 +347,17 @@ class Arm:
             self.qd = (self.q - q_before) / dt_s
             self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
         if motion.finished:
-            self.halt("stopped" if motion.braking else "reached")
+            self._end(motion, "stopped" if motion.braking else "reached")
+
+    def _end(self, motion: Motion, reason: str) -> None:
+        """The motion came to rest this cycle: recorded at the first cycle at or after the
+        exact moment (a late cycle that overshot does not lengthen it)."""
+        rate = self.speed_factor * self.speed_slider
+        end_s = self.now_s
+        if not self.instant and rate > 0.0:
+            exact_s = self.now_s - (motion.elapsed_s - motion.end_time()) / rate
+            end_s = max(motion.started_s, math.ceil(exact_s / self.cycle_s - 1e-6) * self.cycle_s)
+        self._rest(MotionEnd(motion, min(end_s, self.now_s), reason))
 
     def _track(self, dt_s: float) -> None:
         """Measured joints, poses, elbow and speeds for this cycle."""

@@ -54,6 +54,7 @@ SAFETY_SAFEGUARD_STOP = 5
 SAFETY_ROBOT_EMERGENCY_STOP = 7
 RUNTIME_STOPPED = 1
 RUNTIME_PLAYING = 2
+RUNTIME_PAUSING = 3
 RUNTIME_PAUSED = 4
 
 
@@ -144,7 +145,7 @@ class Controller:
         self.model_name = model
         self.lock = threading.RLock()
         self.arm = Arm(ur_model, q, _vector(tcp_offset, "tcp_offset"), speed_factor, instant,
-                       tracking_seed=seed if tracking else None)
+                       1.0 / self.profile.cycle_hz, tracking_seed=seed if tracking else None)
         self.registers = Registers()
         self._record = CommandRecord(record_path)
         self._motions = CommandRecord(motion_record_path)
@@ -220,6 +221,11 @@ class Controller:
         self.stop()
 
     # --- public API -------------------------------------------------------------------------
+
+    @property
+    def ports(self) -> dict[str, int]:
+        """The ports this controller serves, by name (rtde, dashboard, script, admin)."""
+        return {listener.name: listener.port for listener in self._listeners}
 
     @property
     def commands(self) -> list[dict[str, Any]]:
@@ -449,7 +455,7 @@ class Controller:
             prefix, _, number = name.rpartition("_")
             if prefix == "input_int_register":
                 regs.in_int[int(number)] = int(_number(value))
-                regs.in_int_written_s[int(number)] = self._time_s
+                regs.in_int_fresh.add(int(number))
             elif prefix == "input_double_register":
                 regs.in_double[int(number)] = _number(value)
             elif prefix == "input_bit_register":
@@ -482,6 +488,7 @@ class Controller:
     def _cycle(self, dt_s: float, time_s: float) -> None:
         self._time_s = time_s
         self.arm.now_s = time_s
+        self.registers.take_in_writes(time_s)  # a controller applies RTDE inputs at a cycle
         script = self._script
         if (script is not None and self._runtime_state() == RUNTIME_PLAYING
                 and self._safety_mode == SAFETY_NORMAL):
@@ -520,9 +527,9 @@ class Controller:
     def _publish(self) -> None:
         """Build every output variable's value for the RTDE senders (replaced, never mutated)."""
         runtime_state = self._runtime_state()
-        refusing = self._script is not None and self._script.refusing
-        modes = Modes(self._robot_mode, self._safety_mode, runtime_state,
-                      program_running_bit=runtime_state == RUNTIME_PLAYING and not refusing)
+        if runtime_state == RUNTIME_PLAYING and self._script is not None and self._script.refusing:
+            runtime_state = RUNTIME_PAUSING  # how a refused command reaches ur_rtde (program.py)
+        modes = Modes(self._robot_mode, self._safety_mode, runtime_state)
         io = Io(self._standard_do, self._configurable_do, self._tool_do, self._digital_inputs,
                 (self._analog_out[0], self._analog_out[1]), self._analog_io_types)
         self._outputs = self._output_table.build(self._time_s, self.arm, modes, io,

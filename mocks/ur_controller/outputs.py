@@ -35,8 +35,7 @@ _ZERO = {"BOOL": False, "UINT8": 0, "INT32": 0, "UINT32": 0, "UINT64": 0, "DOUBL
 class Modes:
     robot_mode: int  # 7 RUNNING, 5 IDLE, 3 POWER_OFF
     safety_mode: int  # 1 NORMAL, 3 PROTECTIVE_STOP, 5 SAFEGUARD_STOP, 7 ROBOT_EMERGENCY_STOP
-    runtime_state: int  # 1 STOPPED, 2 PLAYING, 4 PAUSED
-    program_running_bit: bool  # robot_status_bits bit 1 (cleared while a move is refused)
+    runtime_state: int  # 1 STOPPED, 2 PLAYING, 3 PAUSING, 4 PAUSED
 
 
 @dataclass(frozen=True)
@@ -90,7 +89,7 @@ class OutputTable:
             actual_digital_output_bits=(io.standard_do | io.configurable_do << 8
                                         | io.tool_do << 16),
             runtime_state=modes.runtime_state,
-            robot_status_bits=int(powered) | int(modes.program_running_bit) << 1,
+            robot_status_bits=int(powered) | int(modes.runtime_state == RUNTIME_PLAYING) << 1,
             safety_status_bits=_SAFETY_BITS[modes.safety_mode],
             analog_io_types=io.analog_io_types,
             standard_analog_output0=io.analog_out[0],

@@ -16,14 +16,16 @@ and is logged loudly: the client sees `runtime_state` leave PLAYING and returns 
 waiting 300 s for an answer that never comes.
 
 Fault refuse-move: the next motion command is not run and never answered; while its id stays in
-the register the controller reports the program-running status bit cleared (`refusing`), the only
-way ur_rtde 1.6.5's sendCommand returns False at once without a protective stop, an emergency stop
-or a stopped program; once the client clears the register everything reads normal again.
+the register (`refusing`) the controller reports runtime_state PAUSING (3) instead of PLAYING.
+That is the only way ur_rtde 1.6.5's sendCommand returns False at once without a protective stop,
+an emergency stop or a stopped program (it polls runtime_state while it waits for the answer);
+ur_rtde then clears the register and everything reads normal again.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -54,8 +56,16 @@ class Registers:
         self.out_double = [0.0] * 48
         self.in_bits = [False] * 128
         self.out_bits = [False] * 128
-        # Controller time of the last client write to each input int register (watchdog).
+        # Controller time of the cycle that took in the last client write to each input int
+        # register (the watchdog's "update"), and the registers written since the last cycle.
         self.in_int_written_s = [0.0] * 48
+        self.in_int_fresh: set[int] = set()
+
+    def take_in_writes(self, now_s: float) -> None:
+        """Start of a cycle: inputs written since the last one count as updated now."""
+        for n in self.in_int_fresh:
+            self.in_int_written_s[n] = now_s
+        self.in_int_fresh.clear()
 
 
 class ControlScript:
@@ -150,32 +160,39 @@ class ControlScript:
         self._blocking_motion = None
         self._set_out_int(0, DONE)
 
-    def stop(self, reason: str, detail: dict[str, float] | None = None) -> None:
+    def stop(self, reason: str, detail: dict[str, float] | None = None,
+             at_s: float | None = None) -> None:
         """End the program (dashboard stop, pendant stop, 255, runtime error, watchdog); `detail`
-        goes with the halted motion into the motion record."""
+        and the controller time it took effect (`at_s`, default now) go with the halted motion
+        into the motion record."""
         if self.running:
             log.info("rtde_control program stopped: %s", reason)
         self.running = False
         if self._async_motion is not None:
             self._async_motion = None
             self._write_async_word(-1)
-        self._arm.halt(f"program stopped: {reason}", detail)
+        self._arm.halt(f"program stopped: {reason}", detail, at_s)
 
     def _watchdog_starved(self, now_s: float) -> bool:
         """rtde_set_watchdog(input_int_register_0 (+offset), f, "stop"), as ur_rtde's setWatchdog
-        arms it: the program stops once that input has had no update for more than 1/f s. Checked
-        every cycle, also while a synchronous move blocks the script. A frequency <= 0 (which
-        URScript does not document) counts as starved at once."""
+        arms it: the program stops in the first control cycle after the input has gone 1/f s
+        without an update. Checked every cycle, also while a synchronous move blocks the script;
+        a cycle that runs late stops the arm where the previous cycle left it, and the stop is
+        recorded at the cycle it was due. A frequency <= 0 (which URScript does not document)
+        counts as starved at once."""
         if self._watchdog_hz is None:
             return False
         last_update_s = self._reg.in_int_written_s[self._off]
-        silence_s = now_s - last_update_s
-        if self._watchdog_hz > 0 and silence_s <= 1.0 / self._watchdog_hz:
+        period_s = self._arm.cycle_s
+        allowed_cycles = math.floor(1.0 / self._watchdog_hz / period_s + 1e-9) + 1 if (
+            self._watchdog_hz > 0) else 0
+        due_s = last_update_s + allowed_cycles * period_s
+        if now_s < due_s - 1e-9:
             return False
         self.stop(f"RTDE watchdog: input_int_register_{self._off} not updated for "
-                  f"{silence_s:.3f} s, minimum frequency {self._watchdog_hz} Hz",
+                  f"{due_s - last_update_s:.3f} s, minimum frequency {self._watchdog_hz} Hz",
                   {"watchdog_last_update_t": last_update_s,
-                   "watchdog_min_frequency_hz": self._watchdog_hz})
+                   "watchdog_min_frequency_hz": self._watchdog_hz}, at_s=min(due_s, now_s))
         return True
 
     # --- commands -----------------------------------------------------------------------------
