@@ -364,6 +364,10 @@ class Arm:
         servo_before = self._servo_q
         elbow_before = self.elbow_position
         if self._tracking is None:
+            if self.q is servo_before:  # an idle arm: nothing to recompute (most cycles)
+                self.actual_qd = self.qd
+                self.elbow_velocity = np.zeros(3)
+                return
             self._servo_q = self.actual_q = self.q
             self.actual_qd = self.qd
         else:

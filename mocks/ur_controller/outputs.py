@@ -59,6 +59,7 @@ class OutputTable:
             tool_output_voltage=_TOOL_OUTPUT_VOLTAGE_V, tool_temperature=30.0,
         )
         self._served = set(types)
+        self._unserved: list[str] | None = None  # of the fields `build` computes
 
     def build(self, time_s: float, arm: Arm, modes: Modes, io: Io,
               registers: Registers) -> dict[str, object]:
@@ -101,23 +102,43 @@ class OutputTable:
             joint_position_deviation_ratio=deviation / JOINT_DEVIATION_LIMIT_RAD,
         )
         # Only served fields: a CB3 has no safety_status or joint_position_deviation_ratio.
-        out.update((name, value) for name, value in state.items() if name in self._served)
+        if self._unserved is None:
+            self._unserved = [name for name in state if name not in self._served]
+        for name in self._unserved:
+            del state[name]
+        out.update(state)
         _registers(out, registers)
         return out
 
 
+class _RegisterNames:
+    """Output field names of every register, in register order (built once, not per cycle)."""
+
+    def __init__(self) -> None:
+        self.out_int = [f"output_int_register_{n}" for n in range(48)]
+        self.out_double = [f"output_double_register_{n}" for n in range(48)]
+        self.in_int = [f"input_int_register_{n}" for n in range(48)]
+        self.in_double = [f"input_double_register_{n}" for n in range(48)]
+        self.out_bits = [f"output_bit_register_{n}" for n in range(64, 128)]
+        self.in_bits = [f"input_bit_register_{n}" for n in range(64, 128)]
+
+
+_NAMES = _RegisterNames()
+
+
 def _registers(out: dict[str, object], regs: Registers) -> None:
-    for n in range(48):
-        out[f"output_int_register_{n}"] = regs.out_int[n]
-        out[f"output_double_register_{n}"] = regs.out_double[n]
-        out[f"input_int_register_{n}"] = regs.in_int[n]
-        out[f"input_double_register_{n}"] = regs.in_double[n]
-    for prefix, bits in (("output", regs.out_bits), ("input", regs.in_bits)):
-        out[f"{prefix}_bit_registers0_to_31"] = _pack(bits[0:32])
-        out[f"{prefix}_bit_registers32_to_63"] = _pack(bits[32:64])
-        for n in range(64, 128):
-            out[f"{prefix}_bit_register_{n}"] = bits[n]
+    out.update(zip(_NAMES.out_int, regs.out_int, strict=True))
+    out.update(zip(_NAMES.out_double, regs.out_double, strict=True))
+    out.update(zip(_NAMES.in_int, regs.in_int, strict=True))
+    out.update(zip(_NAMES.in_double, regs.in_double, strict=True))
+    out.update(zip(_NAMES.out_bits, regs.out_bits[64:], strict=True))
+    out.update(zip(_NAMES.in_bits, regs.in_bits[64:], strict=True))
+    out["output_bit_registers0_to_31"] = _pack(regs.out_bits[0:32])
+    out["output_bit_registers32_to_63"] = _pack(regs.out_bits[32:64])
+    out["input_bit_registers0_to_31"] = _pack(regs.in_bits[0:32])
+    out["input_bit_registers32_to_63"] = _pack(regs.in_bits[32:64])
 
 
 def _pack(bits: list[bool]) -> int:
-    return sum(1 << i for i, bit in enumerate(bits) if bit)
+    """32 bits, bit i first, as the guide's UINT32 bit fields hold them."""
+    return int("".join("1" if bit else "0" for bit in reversed(bits)), 2) if any(bits) else 0
