@@ -61,6 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
                         help="append each motion's start, end and time moving as JSON lines")
     parser.add_argument("--inject", action="append", default=[], metavar="FAULT@WHEN",
                         help="fault, e.g. protective-stop@move:2:0.5 (repeatable)")
+    parser.add_argument("--part-width-mm", type=float, metavar="W",
+                        help="a part W mm wide waits at the gripper (default: none)")
+    parser.add_argument("--feedback-input", nargs=2, type=int, metavar=("DO", "DI"),
+                        help="digital input bit DI reads true while output bit DO is on and "
+                             "the part is present (bits of actual_digital_*_bits, 0-17)")
     parser.add_argument("--no-remote-control", action="store_true",
                         help="start in local control (dashboard says remote control is off)")
     parser.add_argument("--allow-non-loopback", action="store_true",
@@ -78,6 +83,7 @@ def _controller(args: argparse.Namespace) -> Controller:
         inject=args.inject, remote_control=not args.no_remote_control,
         allow_non_loopback=args.allow_non_loopback, profile=args.profile,
         tracking=args.tracking, seed=args.seed, motion_record_path=args.record_motions,
+        part_width_mm=args.part_width_mm, feedback_input=args.feedback_input,
     )
 
 

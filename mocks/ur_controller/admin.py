@@ -3,7 +3,8 @@
 One JSON object per line each way, on TCP port ADMIN_PORT of the controller's own loopback
 address (the controller never opens it on any other address). Requests:
 `{"op": "inject", "spec": "protective-stop"}`, `{"op": "snapshot"}`, `{"op": "commands"}`,
-`{"op": "motions"}`, `{"op": "set_remote_control", "enabled": false}`. Replies:
+`{"op": "motions"}`, `{"op": "set_remote_control", "enabled": false}`,
+`{"op": "set_part", "width_mm": 40.0}` (null: no part). Replies:
 `{"ok": true, "result": ...}` or `{"ok": false, "error": "one line"}`. SimulatedController sends
 the same requests on the child's stdin.
 """
@@ -46,6 +47,10 @@ def _result(ctl: Controller, request: Any) -> Any:
         return None
     if op == "set_remote_control":
         ctl.set_remote_control(bool(request["enabled"]))
+        return None
+    if op == "set_part":
+        width = request["width_mm"]
+        ctl.set_part(None if width is None else float(width))
         return None
     raise ValueError(f"unknown request op {op!r}")
 

@@ -33,6 +33,7 @@ from mocks.ur_controller.admin import AdminServer
 from mocks.ur_controller.arm import Arm, UnreachableError, default_q
 from mocks.ur_controller.dashboard import DashboardServer
 from mocks.ur_controller.faults import FaultSpec, parse_fault
+from mocks.ur_controller.gripper import Robotiq2F, RobotiqServer, answer
 from mocks.ur_controller.net import Listener
 from mocks.ur_controller.outputs import Io, Modes, OutputTable
 from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES, Profile
@@ -79,6 +80,10 @@ class ControllerSnapshot:
     configurable_digital_out: int
     payload_kg: float
     payload_cog: tuple[float, ...]  # m, tool flange frame
+    digital_inputs: int  # actual_digital_input_bits
+    gripper_position: int  # Robotiq POS, 0 open .. 255 closed
+    gripper_object: int  # Robotiq OBJ
+    part_present: bool  # the scripted part is between the fingers / at the gripper
     time_s: float  # controller time
     profile: str
 
@@ -114,6 +119,8 @@ class Controller:
         tracking: bool = False,
         seed: int = 0,
         motion_record_path: str | Path | None = None,
+        part_width_mm: float | None = None,
+        feedback_input: Sequence[int] | None = None,
     ):
         if not ipaddress.ip_address(host).is_loopback and not allow_non_loopback:
             raise ValueError(f"Controller: host {host!r} is not a loopback address; "
@@ -147,6 +154,9 @@ class Controller:
         self.arm = Arm(ur_model, q, _vector(tcp_offset, "tcp_offset"), speed_factor, instant,
                        1.0 / self.profile.cycle_hz, tracking_seed=seed if tracking else None)
         self.registers = Registers()
+        self.gripper = Robotiq2F(time_scale=speed_factor, instant=instant,
+                                 part_width_mm=_width(part_width_mm))
+        self._feedback = _feedback_bits(feedback_input)
         self._record = CommandRecord(record_path)
         self._motions = CommandRecord(motion_record_path)
         self._faults = [parse_fault(spec) for spec in inject]
@@ -177,6 +187,7 @@ class Controller:
             listeners.append(DashboardServer(host, self).listener)
         if self.profile.script_port:
             listeners.append(ScriptPort(host, self.run_program).listener)
+        listeners.append(RobotiqServer(host, self).listener)
         if ipaddress.ip_address(host).is_loopback:  # never offer the admin channel off the box
             listeners.append(AdminServer(host, self).listener)
         self._listeners = tuple(listeners)
@@ -246,6 +257,16 @@ class Controller:
             else:
                 self._faults.append(fault)
 
+    def set_part(self, width_mm: float | None) -> None:
+        """Script the part: present with this width (mm) at the gripper, or absent (None)."""
+        with self.lock:
+            self.gripper.part_width_mm = _width(width_mm)
+
+    def gripper_request(self, request: str) -> str | None:
+        """One line on the Robotiq socket: the reply, or None when the gripper is silent."""
+        with self.lock:
+            return answer(self.gripper, request)
+
     def set_remote_control(self, enabled: bool) -> None:
         """Switch remote/local control, as on the pendant; ValueError on a profile without it."""
         if not self.profile.remote_control_mode:
@@ -274,6 +295,10 @@ class Controller:
                 configurable_digital_out=self._configurable_do,
                 payload_kg=arm.payload_kg,
                 payload_cog=tuple(arm.payload_cog_m.tolist()),
+                digital_inputs=self._digital_input_bits(),
+                gripper_position=self.gripper.get("POS"),
+                gripper_object=self.gripper.obj,
+                part_present=self.gripper.part_width_mm is not None,
                 time_s=self._time_s,
                 profile=self.profile.name,
             )
@@ -411,6 +436,12 @@ class Controller:
             self._refuse_next_start = True
         elif fault.name == "refuse-move":
             self._refuse_next_move = True
+        elif fault.name == "gripper-fault":
+            self.gripper.flt = fault.code or 0
+        elif fault.name == "gripper-silent":
+            self.gripper.silent = True
+        elif fault.name == "gripper-drop":
+            self.gripper.drop_part()
         elif fault.name == "slow":
             self._slow_s = fault.seconds or 0.0
             if self._script is not None:
@@ -500,6 +531,7 @@ class Controller:
             motion = None
         if motion is not None:
             self._fire_move_faults(motion.index, motion.fraction)
+        self.gripper.advance(dt_s)
         self._record_ended_motions()
         self._publish()
 
@@ -519,6 +551,16 @@ class Controller:
             self._faults.remove(fault)
             self._apply(fault)
 
+    def _digital_input_bits(self) -> int:
+        """actual_digital_input_bits: the feedback input, if configured, reads true while its
+        gripper output is on and the scripted part is present."""
+        if self._feedback is None:
+            return self._digital_inputs
+        output_bit, input_bit = self._feedback
+        outputs = self._standard_do | self._configurable_do << 8 | self._tool_do << 16
+        sensed = bool(outputs >> output_bit & 1) and self.gripper.part_width_mm is not None
+        return self._digital_inputs & ~(1 << input_bit) | int(sensed) << input_bit
+
     def _runtime_state(self) -> int:
         if self._script is None or not self._script.running:
             return RUNTIME_STOPPED
@@ -530,10 +572,27 @@ class Controller:
         if runtime_state == RUNTIME_PLAYING and self._script is not None and self._script.refusing:
             runtime_state = RUNTIME_PAUSING  # how a refused command reaches ur_rtde (program.py)
         modes = Modes(self._robot_mode, self._safety_mode, runtime_state)
-        io = Io(self._standard_do, self._configurable_do, self._tool_do, self._digital_inputs,
+        io = Io(self._standard_do, self._configurable_do, self._tool_do, self._digital_input_bits(),
                 (self._analog_out[0], self._analog_out[1]), self._analog_io_types)
         self._outputs = self._output_table.build(self._time_s, self.arm, modes, io,
                                                  self.registers)
+
+
+def _width(width_mm: float | None) -> float | None:
+    if width_mm is not None and not 0.0 <= width_mm <= 85.0:
+        raise ValueError(f"Controller: a part width must be 0..85 mm, got {width_mm}")
+    return width_mm
+
+
+def _feedback_bits(feedback_input: Sequence[int] | None) -> tuple[int, int] | None:
+    """(output bit, input bit): bits of actual_digital_output_bits / _input_bits (0-17)."""
+    if feedback_input is None:
+        return None
+    bits = tuple(int(b) for b in feedback_input)
+    if len(bits) != 2 or not all(0 <= b <= 17 for b in bits):
+        raise ValueError(f"Controller: feedback_input is (output bit, input bit), each 0..17, "
+                         f"got {feedback_input!r}")
+    return bits[0], bits[1]
 
 
 def _masked(values: Mapping[str, object], name: str, bits: int) -> int:

@@ -29,7 +29,8 @@ class SimulatedController:
 
     Arguments are those of the command line (see README.md): poses are UR vectors (m, rad),
     joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds `FAULT@WHEN` specs, `profile` is
-    e-series (default), cb3 or polyscope-x, `tracking` adds tracking lag and measurement noise.
+    e-series (default), cb3 or polyscope-x, `tracking` adds tracking lag and measurement noise,
+    `part_width_mm` puts a part at the gripper, `feedback_input` is (output bit, input bit).
     """
 
     def __init__(
@@ -49,6 +50,8 @@ class SimulatedController:
         tracking: bool = False,
         seed: int = 0,
         motion_record_path: str | Path | None = None,
+        part_width_mm: float | None = None,
+        feedback_input: Sequence[int] | None = None,
     ):
         self.host = host
         self.profile = profile
@@ -59,6 +62,10 @@ class SimulatedController:
             argv += ["--tracking", "--seed", str(seed)]
         if motion_record_path is not None:
             argv += ["--record-motions", str(motion_record_path)]
+        if part_width_mm is not None:
+            argv += ["--part-width-mm", repr(float(part_width_mm))]
+        if feedback_input is not None:
+            argv += ["--feedback-input", *(str(int(b)) for b in feedback_input)]
         if initial_q is not None:
             argv += ["--initial-q", *_numbers(initial_q)]
         if initial_flange_pose is not None:
@@ -149,6 +156,11 @@ class SimulatedController:
             for key, value in self._request({"op": "snapshot"}).items()
         }
         return ControllerSnapshot(**fields)
+
+    def set_part(self, width_mm: float | None) -> None:
+        """Script the part at the gripper: present with this width (mm), or absent (None).
+        A part slipping out at a given moment: inject `gripper-drop@move:K:FRACTION`."""
+        self._request({"op": "set_part", "width_mm": width_mm})
 
     def set_remote_control(self, enabled: bool) -> None:
         """Switch remote/local control as on the pendant (e-series profile only)."""

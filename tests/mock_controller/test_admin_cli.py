@@ -59,7 +59,7 @@ def test_inject_without_a_controller_fails_clearly(tmp_path: Path) -> None:
 
 def test_a_controller_never_offers_the_admin_channel_off_loopback() -> None:
     ctl = Controller(host="10.1.2.3", allow_non_loopback=True)  # constructed, never started
-    assert ctl.ports == {"rtde": 30004, "dashboard": 29999, "script": 30003}
+    assert ctl.ports == {"rtde": 30004, "dashboard": 29999, "script": 30003, "robotiq": 63352}
 
 
 def test_help_runs_from_any_directory(tmp_path: Path) -> None:
