@@ -135,6 +135,9 @@ class Controller:
                              f"for the {profile} profile, got {model!r}")
         if not speed_factor > 0:
             raise ValueError(f"Controller: speed_factor must be > 0, got {speed_factor}")
+        if tracking and instant:
+            raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
+                             "instant move ends at full speed, far ahead of a lagging arm")
         if initial_q is not None and initial_flange_pose is not None:
             raise ValueError("Controller: give initial_q or initial_flange_pose, not both")
         ur_model = kin.ALL_MODELS[model]

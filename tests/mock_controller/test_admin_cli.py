@@ -72,3 +72,17 @@ def test_help_runs_from_any_directory(tmp_path: Path) -> None:
 def test_bad_choices_are_refused(argument: str, tmp_path: Path) -> None:
     done = run_module("--host", next_loopback_host(), argument, "nonsense", cwd=tmp_path)
     assert done.returncode == 2
+
+
+@pytest.mark.parametrize(("arguments", "message"), [
+    (["--profile", "cb3", "--model", "ur5e"], "for the cb3 profile"),
+    (["--tracking", "--instant"], "tracking needs real-time motion"),
+    (["--feedback-input", "16", "40"], "feedback_input"),
+    (["--part-width-mm", "90"], "part width"),
+])
+def test_inconsistent_options_are_refused_in_one_line(arguments: list[str], message: str,
+                                                     tmp_path: Path) -> None:
+    done = run_module("--host", next_loopback_host(), *arguments, cwd=tmp_path)
+    assert done.returncode == 2
+    assert message in done.stderr
+    assert len(done.stderr.splitlines()) == 1
