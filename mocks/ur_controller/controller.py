@@ -175,7 +175,6 @@ class Controller:
         self._standard_do = 0
         self._configurable_do = 0
         self._tool_do = 0
-        self._digital_inputs = 0
         self._analog_out = [0.0, 0.0]
         self._analog_io_types = 0
         self._cycle_s = 1.0 / self.profile.cycle_hz
@@ -555,14 +554,14 @@ class Controller:
             self._apply(fault)
 
     def _digital_input_bits(self) -> int:
-        """actual_digital_input_bits: the feedback input, if configured, reads true while its
-        gripper output is on and the scripted part is present."""
+        """actual_digital_input_bits: nothing is wired but the feedback input, if configured,
+        which reads true while its gripper output is on and the scripted part is present."""
         if self._feedback is None:
-            return self._digital_inputs
+            return 0
         output_bit, input_bit = self._feedback
         outputs = self._standard_do | self._configurable_do << 8 | self._tool_do << 16
         sensed = bool(outputs >> output_bit & 1) and self.gripper.part_width_mm is not None
-        return self._digital_inputs & ~(1 << input_bit) | int(sensed) << input_bit
+        return int(sensed) << input_bit
 
     def _runtime_state(self) -> int:
         if self._script is None or not self._script.running:
