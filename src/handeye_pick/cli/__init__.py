@@ -42,7 +42,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from handeye_pick.cli import calibrate, cloud, operator, pick, run, transform
+    from handeye_pick.cli import calibrate, cloud, collect, operator, pick, run, transform
 
     parser = _Parser(
         prog="handeye-pick",
@@ -51,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_output_args(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for module in (transform, pick, cloud, operator, run, calibrate):
+    for module in (transform, pick, cloud, operator, run, calibrate, collect):
         module.register(sub)
     for command_parser in sub.choices.values():  # --quiet/--log-file also after the command
         add_output_args(command_parser, with_defaults=False)
