@@ -83,4 +83,10 @@ def write_pose_list(
 
 
 def _flow(values: list[float]) -> str:
-    return "[" + ", ".join(repr(v) for v in values) + "]"
+    return "[" + ", ".join(_yaml_float(v) for v in values) + "]"
+
+
+def _yaml_float(value: float) -> str:
+    """Full precision, and a YAML 1.1 float: PyYAML reads 1e-05 (no dot) as text, 1.0e-05 not."""
+    text = repr(value)
+    return text.replace("e", ".0e", 1) if "e" in text and "." not in text else text
