@@ -42,13 +42,13 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "poses",
         help="propose reachable poses for a hand-eye dataset; moves nothing",
         description="Propose COUNT poses that show the calibration board to the camera from "
-        "varied directions (tilted up to 40 deg from face on toward different sides, rolled; "
-        "30 deg or more between any two), keeping only targets the controller's IK and safety "
-        "limits and the config's workspace box and tilt limit accept. Eye-in-hand: the camera "
-        "looks at --look-at (the board's centre) from --distance-mm. Eye-to-hand: the board's "
-        "centre is held at --look-at, its face turned toward the fixed camera. Writes a pose "
-        "list of TCP poses for robot.tcp_offset. The cell must be ready (the controller is "
-        "asked about every target).",
+        "varied directions (tilted up to 40 deg toward different sides, rolled; 30 deg or more "
+        "between any two), keeping only targets the controller's IK and safety limits and the "
+        "config's workspace box and tilt limit accept. Eye-in-hand: the camera looks at "
+        "--look-at (the board's centre, board face up) from --distance-mm, tilted from straight "
+        "down. Eye-to-hand: the board's centre is held at --look-at, its face turned toward the "
+        "fixed camera, tilted from face on. Writes a pose list of TCP poses for "
+        "robot.tcp_offset. The cell must be ready (the controller is asked about every target).",
     )
     accept_negative_exponents(poses)
     add_config_arg(poses)
