@@ -57,7 +57,6 @@ log = logging.getLogger(__name__)
 POSE_INDEX_ENV = "HANDEYE_POSE_INDEX"
 OBJECT_POSE_FILE_ENV = "HANDEYE_OBJECT_POSE_FILE"
 PENDING_PREFIX = "pending_"  # staging files: not a pose file name, so calibrate ignores them
-DEFAULT_CAPTURE_TIMEOUT_S = 60.0
 UNITS_FLAG = "--units"
 
 
@@ -165,7 +164,7 @@ class CommandCapture:
         env = {
             **os.environ,
             POSE_INDEX_ENV: str(number),
-            OBJECT_POSE_FILE_ENV: str(object_pose_file),
+            OBJECT_POSE_FILE_ENV: str(object_pose_file.absolute()),  # the program may chdir
         }
         name = Path(self.argv[0]).name
         with subprocess.Popen(
@@ -214,8 +213,8 @@ class EnterCapture:
     def __call__(self, number: int, object_pose_file: Path) -> None:
         print(
             f"pair {number}: the arm is steady. Capture, write T_cam_obj ({self.units}, Zivid "
-            f"YAML) to {object_pose_file}, then press Enter (Enter alone skips the pose, Ctrl-C "
-            "ends the collection) ",
+            f"YAML) to {object_pose_file.absolute()}, then press Enter (Enter alone skips the "
+            "pose, Ctrl-C ends the collection) ",
             end="",
             file=sys.stderr,
             flush=True,

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.cli.cell import add_config_arg, print_json, progress_from_args
@@ -32,12 +33,11 @@ if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --h
     from handeye_pick.collect import Collection
 
 DEFAULT_COUNT = 10
+DEFAULT_CAPTURE_TIMEOUT_S = 60.0  # a 3D capture and a board detection take seconds
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``poses`` and ``collect`` to the top-level parser."""
-    from handeye_pick.collect import DEFAULT_CAPTURE_TIMEOUT_S
-
     poses = sub.add_parser(
         "poses",
         help="propose reachable poses for a hand-eye dataset; moves nothing",
@@ -254,7 +254,7 @@ def _propose(
     cell: Cell,
     args: argparse.Namespace,
     mode: HandEyeMode,
-    look_at_m: np.ndarray,
+    look_at_m: NDArray[np.float64],
     T_mount: Transform,
     T_flange_tcp: Transform,
 ) -> list[Transform]:
