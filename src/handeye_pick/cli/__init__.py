@@ -73,6 +73,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "run the cell for a shift: JSON requests (capture, pick, place, move, status, resume, "
         "quit) one per line on stdin or a TCP socket",
     ),
+    "poses": ("collect", "propose reachable poses for a hand-eye dataset; moves nothing"),
+    "collect": ("collect", "move through a pose list and capture a hand-eye dataset"),
     "calibrate": (
         "calibrate",
         "solve a hand-eye calibration from robot_pose_N.yaml / object_pose_N.yaml pairs",

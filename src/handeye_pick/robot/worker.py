@@ -208,8 +208,10 @@ class _Session:
 
     def remote_control(self) -> bool:
         """The pendant's Remote Control mode. A CB3 (PolyScope 3.x) has no such mode: any
-        client may command it, so the check does not apply and it answers True."""
-        if _major_version(self.controller_version) < REMOTE_CONTROL_SINCE_MAJOR:
+        client may command it, so the check does not apply and it answers True. An unreadable
+        version keeps the check."""
+        major = _major_version(self.controller_version)
+        if major is not None and major < REMOTE_CONTROL_SINCE_MAJOR:
             return True
         return bool(self._dashboard.isInRemoteControl())
 
@@ -249,13 +251,14 @@ class _Session:
         return self._io
 
 
-def _major_version(polyscope_version: str) -> int:
-    """5 from 'URSoftware 5.15.0.1234 (Jul 12 2023)'; 0 when it cannot be read (then every
-    check applies)."""
-    words = polyscope_version.split()
-    number = words[1] if len(words) > 1 and words[0] == "URSoftware" else ""
-    major = number.split(".", 1)[0]
-    return int(major) if major.isdigit() else 0
+def _major_version(polyscope_version: str) -> int | None:
+    """5 from '5.15.0.1234' (what ur_rtde's polyscopeVersion() returns) or from the dashboard's
+    'URSoftware 5.15.0.1234 (Jul 12 2023)'; None when no version number is found."""
+    for word in polyscope_version.split():
+        major = word.split(".", 1)[0]
+        if "." in word and major.isdigit():
+            return int(major)
+    return None
 
 
 def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None:
