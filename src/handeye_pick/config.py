@@ -21,9 +21,10 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import HandEyeMode
+from handeye_pick.calibration import MAX_ROTVEC_RAD, HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
+from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, yaml_problem
 from handeye_pick.robot.port import OutputBank
 from handeye_pick.safety import (
     MAX_ACCEL_MPS2,
@@ -36,7 +37,6 @@ from handeye_pick.safety import (
 # real cell uses, so it only fires on a mistake.
 MAX_TCP_OFFSET_M = 1.0  # a TCP offset in mm (150) typed into this m key would be 150 m
 MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
-MAX_ROTVEC_RAD = 2.0 * math.pi  # a rotation vector longer than this is in degrees
 MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
 MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
 MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
@@ -128,44 +128,22 @@ class CellConfig:
 # --- reading YAML strictly ----------------------------------------------------------------------
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses a key given twice (plain safe_load keeps the last one silently)."""
+def read_yaml_mapping(path: Path, error: type[InputError], what: str = "file") -> object:
+    """Parse ``path`` (a ``what``: "cell config", "detection file") as YAML with
+    ``inputfiles.BoundedLoader``: safe constructors only, duplicate keys refused, size, values
+    and nesting bounded.
 
-
-def _construct_unique_mapping(
-    loader: yaml.SafeLoader, node: yaml.MappingNode
-) -> dict[object, object]:
-    seen: set[object] = set()
-    for key_node, _ in node.value:
-        if key_node.tag == "tag:yaml.org,2002:merge":
-            continue  # "<<: *anchor" merges; keys written next to it override on purpose
-        key = loader.construct_object(key_node)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"key {key!r} appears twice", key_node.start_mark
-            )
-        seen.add(key)
-    return loader.construct_mapping(node)
-
-
-_UniqueKeyLoader.add_constructor(
-    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_unique_mapping
-)
-
-
-def read_yaml_mapping(path: Path, error: type[InputError]) -> object:
-    """Parse ``path`` as YAML (safe constructors only, duplicate keys refused).
-
-    Raises ``error`` naming the file for a missing or unreadable file or a syntax error.
+    Raises ``error`` with one line naming the file (and the line and column of a YAML error).
     """
+    data = read_input_bytes(path, what, error)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise error(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise error(f"{path}: not UTF-8 text (a binary file?)") from None
     try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass: safe
+        return yaml.load(text, Loader=BoundedLoader)  # a SafeLoader subclass: safe
     except yaml.YAMLError as exc:
-        raise error(f"{path}: not valid YAML: {exc}") from None
+        raise error(f"{path}: not valid YAML: {yaml_problem(exc)}") from None
 
 
 class Fields:
@@ -298,8 +276,11 @@ class Fields:
             hint = ""
             if isinstance(value, str) and _parses_as_float(value):
                 if "e" in value.lower():
-                    # YAML 1.1 (PyYAML) reads 1e-3 as text: it needs a dot, 1.0e-3.
-                    hint = " (YAML reads exponents without a dot as text: write 1.0e-3, not 1e-3)"
+                    # YAML 1.1 (PyYAML) reads 1e-3 and 1.0e3 as text: it needs a dot and a sign.
+                    hint = (
+                        " (YAML reads an exponent as a number only with a dot and a sign: "
+                        "write 1.0e-3 or 1.0e+3, not 1e-3 or 1.0e3)"
+                    )
                 else:
                     hint = " (remove the quotes around the number)"
             self.fail(key, f"expected a number, got {_describe(value)}{hint}")
@@ -338,7 +319,7 @@ def load_config(path: Path) -> CellConfig:
     """Read and validate a cell config; file paths in it are resolved relative to its folder."""
     path = Path(path).resolve()
     top = Fields(
-        read_yaml_mapping(path, ConfigError),
+        read_yaml_mapping(path, ConfigError, "cell config"),
         source=str(path),
         prefix="",
         allowed=("robot", "hand_eye", "grasp", "motion", "workspace", "audit"),
@@ -358,14 +339,14 @@ def load_config(path: Path) -> CellConfig:
 def _pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transform:
     """A UR pose vector [x, y, z, rx, ry, rz] in m and rad, checked for unit mix-ups."""
     pose = fields.vector(key, 6)
-    distance = float(np.linalg.norm(pose[:3]))
+    distance = math.hypot(*pose[:3].tolist())  # no overflow (and no numpy warning) at 1e308
     if distance > max_translation_m:
         fields.fail(
             key,
             f"translation is {distance:g} m long, more than {max_translation_m:g} m: "
             "this key is in metres (millimetres given?)",
         )
-    angle = float(np.linalg.norm(pose[3:]))
+    angle = math.hypot(*pose[3:].tolist())
     if angle > MAX_ROTVEC_RAD:
         fields.fail(
             key,

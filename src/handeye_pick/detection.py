@@ -16,12 +16,14 @@ Detection file (YAML)::
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from handeye_pick.calibration import MAX_ROTVEC_RAD
 from handeye_pick.config import Fields, read_yaml_mapping
 from handeye_pick.errors import DetectionError, TransformError
 from handeye_pick.geometry import (
@@ -39,6 +41,13 @@ MIN_DISTANCE_MM = 10.0
 MAX_DISTANCE_MM = 10_000.0
 
 ORIENTATION_KEYS = ("rotvec_rad", "quaternion_xyzw", "quaternion_wxyz", "rpy_deg", "matrix")
+
+# Bounds on orientation numbers, checked before any arithmetic (which overflows near 1e308).
+# Quaternion and matrix entries: far beyond any rotation's (+-1), so a near miss still gets the
+# specific message (unit norm, orthonormal). Euler angles: beyond a full turn is a wrong unit.
+# Rotation vectors longer than calibration.MAX_ROTVEC_RAD are in degrees.
+MAX_ROTATION_ENTRY = 1e6
+MAX_EULER_DEG = 360.0
 
 
 @dataclass(frozen=True)
@@ -59,7 +68,7 @@ def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
     lens."""
     if not np.all(np.isfinite(p_cam_mm)):
         raise DetectionError(f"{source}: camera point has non-finite values {p_cam_mm.tolist()}")
-    distance = float(np.linalg.norm(p_cam_mm))
+    distance = math.hypot(*p_cam_mm.tolist())  # no overflow (and no numpy warning) at 1e308
     if not MIN_DISTANCE_MM <= distance <= MAX_DISTANCE_MM:
         hint = " (metres given as mm?)" if distance < MIN_DISTANCE_MM else ""
         raise DetectionError(
@@ -95,24 +104,43 @@ def _rotation(orientation: Fields) -> NDArray[np.float64]:
     key = given[0]
     try:
         if key == "rotvec_rad":
-            return rotation_from_rotvec(orientation.vector(key, 3))
-        if key == "quaternion_xyzw":
-            return rotation_from_quaternion(orientation.vector(key, 4), "xyzw")
-        if key == "quaternion_wxyz":
-            return rotation_from_quaternion(orientation.vector(key, 4), "wxyz")
+            rotvec = orientation.vector(key, 3)
+            angle = math.hypot(*rotvec.tolist())  # no overflow at 1e308
+            if angle > MAX_ROTVEC_RAD:
+                orientation.fail(
+                    key,
+                    f"rotation vector is {angle:g} rad long, more than 2*pi: "
+                    "this key is in radians (degrees given?)",
+                )
+            return rotation_from_rotvec(rotvec)
+        if key in ("quaternion_xyzw", "quaternion_wxyz"):
+            q = _bounded(orientation, key, orientation.vector(key, 4), MAX_ROTATION_ENTRY)
+            return rotation_from_quaternion(q, "xyzw" if key == "quaternion_xyzw" else "wxyz")
         if key == "rpy_deg":
             rpy = orientation.section(key, ("angles", "convention"))
-            return rotation_from_euler(rpy.vector("angles", 3), rpy.string("convention"), "deg")
-        return validate_rotation(orientation.matrix(key, 3, 3), orientation.path(key))
+            angles = _bounded(rpy, "angles", rpy.vector("angles", 3), MAX_EULER_DEG)
+            return rotation_from_euler(angles, rpy.string("convention"), "deg")
+        matrix = _bounded(orientation, key, orientation.matrix(key, 3, 3), MAX_ROTATION_ENTRY)
+        return validate_rotation(matrix, orientation.path(key))
     except TransformError as exc:
         orientation.fail(key, str(exc))
+
+
+def _bounded(
+    fields: Fields, key: str, values: NDArray[np.float64], limit: float
+) -> NDArray[np.float64]:
+    """``values`` if every magnitude is at most ``limit``, else an error naming the key."""
+    largest = float(np.max(np.abs(values)))
+    if largest > limit:
+        fields.fail(key, f"{largest:g} is out of range: every value must lie within +-{limit:g}")
+    return values
 
 
 def load_detection(path: Path) -> Detection:
     """Read a detection file (format in the module docstring); errors name the file and key."""
     source = str(path)
     top = Fields(
-        read_yaml_mapping(Path(path), DetectionError),
+        read_yaml_mapping(Path(path), DetectionError, "detection file"),
         source=source,
         prefix="",
         allowed=("position_mm", "orientation"),

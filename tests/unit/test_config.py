@@ -270,6 +270,10 @@ def test_yaml_exponent_without_dot_gets_a_hint(cell: Path) -> None:
     path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 25e-2"))
     with pytest.raises(ConfigError, match=r"motion\.speed_mps: .*write 1\.0e-3"):
         load_config(path)
+    # A dot is not enough: YAML 1.1 also wants the exponent's sign, and the hint says so.
+    path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 2.5e1"))
+    with pytest.raises(ConfigError, match=r"motion\.speed_mps: .*a dot and a sign.*1\.0e\+3"):
+        load_config(path)
 
 
 def test_quoted_number_gets_a_hint(cell: Path) -> None:

@@ -20,11 +20,12 @@ from handeye_pick.calibration import (
     HandEyeMode,
     load_hand_eye,
     read_robot_pose_file,
+    robot_pose_from_ur_vector,
 )
 from handeye_pick.cloud import pick_point
 from handeye_pick.cloudio import read_cloud
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform, ur_pose_to_matrix
+from handeye_pick.geometry import Transform
 
 UNITS = ("mm", "m")
 
@@ -150,7 +151,7 @@ def robot_pose_from_args(args: argparse.Namespace) -> Transform | None:
     if args.robot_pose is not None:
         return read_robot_pose_file(args.robot_pose, units=args.robot_pose_units)
     if args.robot_pose_ur is not None:
-        return ur_pose_to_matrix(args.robot_pose_ur)
+        return robot_pose_from_ur_vector(args.robot_pose_ur, "--robot-pose-ur")
     return None
 
 

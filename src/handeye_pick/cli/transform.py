@@ -18,6 +18,7 @@ from handeye_pick.cli.common import (
     camera_chain_from_args,
     camera_point_mm_from_args,
 )
+from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
     AngleUnit,
@@ -89,6 +90,9 @@ def run_point(args: argparse.Namespace) -> int:
     p_cam_mm = camera_point_mm_from_args(args)
     if p_cam_mm is None:
         raise InputError("point needs --xyz X Y Z or --cloud FILE --pixel COL ROW")
+    # The checks pick applies to a camera point (metres given as mm, behind the lens, ...).
+    source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
+    detection_from_point_mm(p_cam_mm, source)
     p_base_mm = transform_point(chain.T_base_cam, p_cam_mm * 1e-3) * 1e3
     calibration = chain.calibration
     if args.json:
