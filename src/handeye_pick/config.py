@@ -25,6 +25,7 @@ from handeye_pick.calibration import MAX_ROTVEC_RAD, HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
 from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, yaml_problem
+from handeye_pick.plausibility import CHECKS
 from handeye_pick.robot.port import OutputBank
 from handeye_pick.safety import (
     MAX_ACCEL_MPS2,
@@ -74,6 +75,7 @@ class HandEyeConfig:
     file: Path  # absolute, resolved relative to the config file
     units: LengthUnit  # length unit of the file's translation ("mm" for Zivid)
     invert: bool = False  # the file was written the other way round (T_cam_flange / T_cam_base)
+    acknowledge: tuple[str, ...] = ()  # plausibility checks this cell's unusual mount fails
 
 
 @dataclass(frozen=True)
@@ -397,7 +399,7 @@ def _gripper(robot: Fields) -> GripperConfig:
 
 
 def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
-    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert"))
+    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert", "acknowledge"))
     mode = HandEyeMode(hand_eye.string("mode", choices=[m.value for m in HandEyeMode]))
     units: LengthUnit = "mm" if hand_eye.string("units", choices=("mm", "m")) == "mm" else "m"
     return HandEyeConfig(
@@ -405,7 +407,20 @@ def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
         file=_existing_file(hand_eye, "file", folder),
         units=units,
         invert=hand_eye.boolean("invert", default=HandEyeConfig.invert),
+        acknowledge=_acknowledged_checks(hand_eye) if hand_eye.has("acknowledge") else (),
     )
+
+
+def _acknowledged_checks(hand_eye: Fields) -> tuple[str, ...]:
+    """Names of plausibility checks (``plausibility.CHECKS``), each given once."""
+    value = hand_eye.raw("acknowledge")
+    if not isinstance(value, list) or not value:
+        hand_eye.fail("acknowledge", f"expected a list of check names, got {_describe(value)}")
+    for i, name in enumerate(value):
+        if name not in CHECKS or name in value[:i]:
+            problem = "given twice" if name in CHECKS else f"expected one of {', '.join(CHECKS)}"
+            hand_eye.fail(f"acknowledge[{i}]", f"{problem}, got {_describe(name)}")
+    return tuple(value)
 
 
 def _existing_file(fields: Fields, key: str, folder: Path) -> Path:

@@ -148,6 +148,20 @@ def test_eye_to_hand_tool_gripper_and_invert(cell: Path) -> None:
     assert config.robot.gripper.settle_s == 0.5
 
 
+def test_acknowledged_plausibility_checks_are_named_each_once(cell: Path) -> None:
+    assert _load_with(cell).hand_eye.acknowledge == ()
+    names = ["camera-in-front-of-flange", "object-in-camera-range"]
+    assert _load_with(cell, hand_eye__acknowledge=names).hand_eye.acknowledge == tuple(names)
+    for value, message in [
+        ([], r"hand_eye\.acknowledge: expected a list of check names, got a list of 0 items"),
+        ("camera-in-front-of-flange", r"hand_eye\.acknowledge: expected a list"),
+        (["all"], r"hand_eye\.acknowledge\[0\]: expected one of camera-near-flange, .*'all'"),
+        (names + names[:1], r"hand_eye\.acknowledge\[2\]: given twice"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            _load_with(cell, hand_eye__acknowledge=value)
+
+
 @pytest.mark.parametrize(
     "changes",
     [

@@ -12,6 +12,7 @@ from handeye_pick.cli.common import (
     add_hand_eye_args,
     add_robot_pose_args,
     camera_chain_from_args,
+    refuse_implausible_chain,
 )
 from handeye_pick.cloud import transform_points
 from handeye_pick.cloudio import cloud_file_type, read_cloud, write_cloud
@@ -57,6 +58,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run_cloud(args: argparse.Namespace) -> int:
     """Read IN, transform it in place into the robot base frame, write OUT; print a summary."""
     chain = camera_chain_from_args(args)
+    refuse_implausible_chain(args, chain, None)
     cloud_file_type(args.output, "write cloud")  # refuse a bad OUT before the slow part
     cloud = read_cloud(args.input)
     # The chain is in metres; the points stay in their own unit, so scale the translation.

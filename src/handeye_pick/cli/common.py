@@ -8,6 +8,7 @@ call these instead of defining their own flags, so ``--calibration`` means the s
 from __future__ import annotations
 
 import argparse
+import logging
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +27,9 @@ from handeye_pick.cloud import pick_point
 from handeye_pick.cloudio import read_cloud
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform
+from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
+
+log = logging.getLogger(__name__)
 
 UNITS = ("mm", "m")
 
@@ -73,6 +77,15 @@ def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True
         action="store_true",
         help="the file holds the inverse (T_cam_flange or T_cam_base); invert it on load. "
         "Nothing is ever inverted without this flag",
+    )
+    group.add_argument(
+        "--acknowledge",
+        action="append",
+        default=[],
+        choices=CHECKS,
+        metavar="CHECK",
+        help="accept one named plausibility check of the camera chain that this mount fails on "
+        "purpose (repeat for several); the refusal names the check",
     )
 
 
@@ -200,3 +213,17 @@ def camera_chain_from_args(args: argparse.Namespace) -> CameraChain:
             "--robot-pose/--robot-pose-ur, or use --mode eye-in-hand if the camera is on the arm"
         )
     return CameraChain(calibration, T_base_flange, calibration.T_base_cam(T_base_flange))
+
+
+def refuse_implausible_chain(
+    args: argparse.Namespace, chain: CameraChain, T_cam_obj: Transform | None
+) -> None:
+    """Refuse (``InputError``) a chain that fails a plausibility check not given to
+    ``--acknowledge``; an acknowledged failure is logged as a warning."""
+    problems = chain_problems(
+        chain.calibration, chain.T_base_flange, T_cam_obj, None, args.acknowledge
+    )
+    for problem in problems:
+        if problem.acknowledged:
+            log.warning("acknowledged %s: %s", problem.check, problem.message)
+    refuse_implausible(problems, chain.calibration.settings, InputError)
