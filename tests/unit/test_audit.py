@@ -228,7 +228,9 @@ def test_a_complete_last_record_without_its_newline_is_a_record(tmp_path: Path) 
     events=st.lists(st.sampled_from(["plan", "outcome"]), min_size=1, max_size=6),
     cut_fraction=st.floats(0.0, 1.0),
 )
-@settings(max_examples=60, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 def test_a_power_cut_anywhere_loses_no_complete_record(
     tmp_path_factory: pytest.TempPathFactory, events: list[str], cut_fraction: float
 ) -> None:
