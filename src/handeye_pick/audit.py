@@ -127,11 +127,7 @@ class AuditLog:
         }
         line = json.dumps(_jsonable(stamped, "record"), allow_nan=False) + "\n"
         try:
-            is_new = not self.path.exists()
             _append_fsynced(self.path, line.encode("utf-8"))
-            if is_new:
-                # A new file's directory entry must reach the disk too, or a power cut loses it.
-                _fsync_directory(self.path.parent)
         except OSError as exc:
             raise AuditError(
                 f"audit: cannot append to {self.path} ({exc.strerror or exc}); "
@@ -140,6 +136,8 @@ class AuditLog:
 
 
 def _append_fsynced(path: Path, data: bytes) -> None:
+    """Append ``data`` (on a fresh line) and fsync the file, creating it if needed."""
+    is_new = not path.exists()
     fd = os.open(path, os.O_RDWR | os.O_APPEND | os.O_CREAT, 0o644)
     try:
         size = os.fstat(fd).st_size
@@ -151,6 +149,9 @@ def _append_fsynced(path: Path, data: bytes) -> None:
         os.fsync(fd)
     finally:
         os.close(fd)
+    if is_new:
+        # A new file's directory entry must reach the disk too, or a power cut loses it.
+        _fsync_directory(path.parent)
 
 
 def check_appendable(path: Path) -> None:
@@ -167,10 +168,7 @@ def check_appendable(path: Path) -> None:
             "refusing to start without a record"
         )
     try:
-        is_new = not path.exists()
         _append_fsynced(path, b"")
-        if is_new:
-            _fsync_directory(path.parent)
     except OSError as exc:
         raise AuditError(
             f"audit: cannot append to {path} ({exc.strerror or exc}); "
