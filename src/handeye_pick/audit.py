@@ -246,7 +246,7 @@ def open_audit(path: Path) -> tuple[AuditLog, list[str]]:
         lock.share()
     except OSError as exc:
         lock.release()
-        raise AuditError(f"audit: cannot read {path} ({exc.strerror or exc})") from None
+        raise AuditError(f"audit: cannot lock or read {path} ({exc.strerror or exc})") from None
     except BaseException:
         lock.release()
         raise
@@ -265,12 +265,13 @@ class _Lock:
             raise AuditError(f"audit: cannot open {path} ({exc.strerror or exc})") from None
 
     def exclusive(self) -> bool:
-        """Whether no other process holds the file (then this one holds it alone)."""
+        """Whether no other process holds the file (then this one holds it alone); raises
+        ``OSError`` where the file system has no locks."""
         if self._fd is None:
             return False
         try:
             fcntl.flock(self._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except OSError:
+        except BlockingIOError:
             return False
         return True
 
