@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import functools
 import hashlib
-import json
 import math
 import re
 from collections.abc import Callable, Sequence
@@ -47,7 +46,7 @@ from handeye_pick.geometry import (
     validate_transform,
 )
 from handeye_pick.geometry import invert as invert_transform
-from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, yaml_problem
+from handeye_pick.inputfiles import BoundedLoader, load_json, read_input_bytes, shown, yaml_problem
 
 
 class HandEyeMode(str, Enum):
@@ -312,22 +311,25 @@ def _parse_matrix(data: bytes, path: Path) -> tuple[list[Any], str | None]:
     except UnicodeDecodeError:
         raise CalibrationError(f"transform file {path} is not UTF-8 text") from None
     first_line, _, rest = text.partition("\n")
+    opencv = bool(_OPENCV_DIRECTIVE.match(first_line.strip()))
     try:
-        if _OPENCV_DIRECTIVE.match(first_line.strip()):
+        if opencv:
             # PyYAML refuses OpenCV's directive; the line carries no data. Blank it, so the line
             # numbers in YAML errors stay right.
             doc = yaml.load("\n" + rest, Loader=_OpenCVLoader)  # a SafeLoader subclass
-            return _opencv_matrix(doc, path), None
-        if path.suffix.lower() == ".json":
-            return _plain_or_zivid_matrix(json.loads(text), path)
-        return _plain_or_zivid_matrix(yaml.load(text, Loader=BoundedLoader), path)
+        elif path.suffix.lower() == ".json":
+            doc = load_json(text)
+        else:
+            doc = yaml.load(text, Loader=BoundedLoader)
     except yaml.YAMLError as exc:
-        problem = yaml_problem(exc)
-    except json.JSONDecodeError as exc:
-        problem = f"{exc.msg} at line {exc.lineno}, column {exc.colno}"
-    except RecursionError:  # json's decoder recurses into nested lists
-        problem = "nested too deeply"
-    raise CalibrationError(f"transform file {path} is not valid YAML/JSON: {problem}")
+        raise CalibrationError(
+            f"transform file {path} is not valid YAML/JSON: {yaml_problem(exc)}"
+        ) from None
+    except ValueError as exc:  # load_json's one-line problems
+        raise CalibrationError(f"transform file {path} is not valid YAML/JSON: {exc}") from None
+    if opencv:
+        return _opencv_matrix(doc, path), None
+    return _plain_or_zivid_matrix(doc, path)
 
 
 def _opencv_matrix(doc: Any, path: Path) -> list[Any]:
@@ -337,18 +339,18 @@ def _opencv_matrix(doc: Any, path: Path) -> list[Any]:
     if len(nodes) != 1:
         raise CalibrationError(
             f"{path}: expected exactly one !!opencv-matrix node (Zivid wrote 'PoseState'), "
-            f"found {len(nodes)}: {_shown(sorted(map(str, nodes)))}"
+            f"found {len(nodes)}: {shown(sorted(map(str, nodes)))}"
         )
     name, node = next(iter(nodes.items()))
     fields = node.fields
     where = f"{path}: node {name}"
     if fields.get("rows") != 4 or fields.get("cols") != 4:
         raise CalibrationError(
-            f"{where}: expected rows: 4 and cols: 4, found rows: {_shown(fields.get('rows'))}, "
-            f"cols: {_shown(fields.get('cols'))}"
+            f"{where}: expected rows: 4 and cols: 4, found rows: {shown(fields.get('rows'))}, "
+            f"cols: {shown(fields.get('cols'))}"
         )
     if fields.get("dt") not in ("d", "f"):
-        raise CalibrationError(f"{where}: expected dt: d or f, found {_shown(fields.get('dt'))}")
+        raise CalibrationError(f"{where}: expected dt: d or f, found {shown(fields.get('dt'))}")
     data = fields.get("data")
     if not isinstance(data, list) or len(data) != 16:
         count = len(data) if isinstance(data, list) else type(data).__name__
@@ -372,11 +374,11 @@ def _plain_or_zivid_matrix(doc: Any, path: Path) -> tuple[list[Any], str | None]
     if unknown or "matrix" not in doc:
         raise CalibrationError(
             f"{path}: a plain transform mapping has keys 'matrix' and optionally 'units', "
-            f"found {_shown(sorted(map(str, doc)))}"
+            f"found {shown(sorted(map(str, doc)))}"
         )
     file_units = doc.get("units")
     if file_units is not None and file_units not in ("mm", "m"):
-        raise CalibrationError(f"{path}: units must be 'mm' or 'm', found {_shown(file_units)}")
+        raise CalibrationError(f"{path}: units must be 'mm' or 'm', found {shown(file_units)}")
     return _matrix_rows(doc["matrix"], f"{path}: matrix"), file_units
 
 
@@ -384,13 +386,12 @@ def _zivid_matrix(doc: dict[Any, Any], path: Path) -> list[Any]:
     if set(doc) != {"__version__", "FloatMatrix"}:
         raise CalibrationError(
             f"{path}: a Zivid transform has exactly the keys __version__ and FloatMatrix, "
-            f"found {_shown(sorted(map(str, doc)))}"
+            f"found {shown(sorted(map(str, doc)))}"
         )
     version = doc["__version__"]
     if version != {"serializer": 1, "data": 1}:
         raise CalibrationError(
-            f"{path}: unsupported Zivid __version__ {_shown(version)}, "
-            "expected serializer 1, data 1"
+            f"{path}: unsupported Zivid __version__ {shown(version)}, expected serializer 1, data 1"
         )
     body = doc["FloatMatrix"]
     if not isinstance(body, dict) or set(body) != {"Data"}:
@@ -400,11 +401,11 @@ def _zivid_matrix(doc: dict[Any, Any], path: Path) -> list[Any]:
 
 def _matrix_rows(value: Any, where: str) -> list[Any]:
     if not isinstance(value, list) or len(value) != 4:
-        raise CalibrationError(f"{where}: expected a list of 4 rows, found {_shown(value)}")
+        raise CalibrationError(f"{where}: expected a list of 4 rows, found {shown(value)}")
     rows = []
     for i, row in enumerate(value):
         if not isinstance(row, list) or len(row) != 4:
-            raise CalibrationError(f"{where}: row {i} must have 4 numbers, found {_shown(row)}")
+            raise CalibrationError(f"{where}: row {i} must have 4 numbers, found {shown(row)}")
         rows.append([_number(v, f"{where} row {i} column {j}") for j, v in enumerate(row)])
     return rows
 
@@ -412,11 +413,11 @@ def _matrix_rows(value: Any, where: str) -> list[Any]:
 def _number(value: Any, where: str) -> float:
     # PyYAML reads "1e-5" (no dot) as a string; accept numeric strings, refuse anything else.
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise CalibrationError(f"{where}: expected a number, found {_shown(value)}")
+        raise CalibrationError(f"{where}: expected a number, found {shown(value)}")
     try:
         number = float(value)
     except ValueError:
-        raise CalibrationError(f"{where}: expected a number, found {_shown(value)}") from None
+        raise CalibrationError(f"{where}: expected a number, found {shown(value)}") from None
     # Refused here, before any arithmetic can overflow; NaN and inf are left to
     # validate_transform, which names them.
     if math.isfinite(number) and abs(number) > MAX_ENTRY:
@@ -425,12 +426,6 @@ def _number(value: Any, where: str) -> float:
             f"translations within a cell; at most {MAX_ENTRY:g} in mm)"
         )
     return number
-
-
-def _shown(value: Any) -> str:
-    """``value`` for a one-line message: its repr, cut to 80 characters."""
-    text = repr(value)
-    return text if len(text) <= 80 else text[:77] + "..."
 
 
 # --- checks ---------------------------------------------------------------------------------------

@@ -24,7 +24,7 @@ from numpy.typing import NDArray
 from handeye_pick.calibration import MAX_ROTVEC_RAD, HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
-from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, yaml_problem
+from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, shown, yaml_problem
 from handeye_pick.plausibility import CHECKS
 from handeye_pick.robot.port import OutputBank
 from handeye_pick.safety import (
@@ -172,11 +172,10 @@ class Fields:
         self.data: dict[object, object] = data
         for key in data:
             if key not in allowed:
-                hint = difflib.get_close_matches(str(key), list(allowed), n=1)
+                name = str(key)[:80]  # a hostile file's key may be a megabyte long
+                hint = difflib.get_close_matches(name, list(allowed), n=1)
                 also = f"; did you mean {hint[0]!r}?" if hint else ""
-                self.fail(
-                    str(key), f"unknown key (expected one of {', '.join(sorted(allowed))}){also}"
-                )
+                self.fail(name, f"unknown key (expected one of {', '.join(sorted(allowed))}){also}")
 
     def path(self, key: str) -> str:
         """The dotted key path, e.g. ``motion.speed_mps``."""
@@ -306,12 +305,12 @@ def _describe(value: object) -> str:
     if isinstance(value, bool):
         return f"boolean {value}"
     if isinstance(value, str):
-        return f"string {value!r}"
+        return f"string {shown(value)}"
     if isinstance(value, list):
         return f"a list of {len(value)} items"
     if isinstance(value, dict):
         return "a mapping"
-    return f"{type(value).__name__} {value!r}"
+    return f"{type(value).__name__} {shown(value)}"
 
 
 # --- the cell config ----------------------------------------------------------------------------

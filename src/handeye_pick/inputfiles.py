@@ -8,8 +8,9 @@ Bounds (each far above any real file of these kinds, which are a few kB with und
 - ``MAX_YAML_VALUES``: values in a YAML document, counting every alias as a full copy of what it
   names; stops "billion laughs" files (a few lines of aliases that expand to 10^9 values).
   Composing stops as soon as the count is passed, so a file under the size bound of 1 MB still
-  takes well under a second.
+  takes about a second at worst (PyYAML checks every character of the text first).
 - ``MAX_YAML_DEPTH``: nesting of lists and mappings (the deepest real file nests 4 levels).
+- ``MAX_INTEGER_CHARS``: digits of one integer (YAML or JSON).
 
 YAML is read with PyYAML's safe constructors only (``!!python/...`` tags are refused) and a key
 given twice in one mapping is refused instead of silently keeping the last one.
@@ -17,6 +18,7 @@ given twice in one mapping is refused instead of silently keeping the last one.
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
@@ -27,6 +29,7 @@ from handeye_pick.errors import InputError
 MAX_INPUT_BYTES = 1_000_000
 MAX_YAML_VALUES = 10_000
 MAX_YAML_DEPTH = 20
+MAX_INTEGER_CHARS = 40  # a longer integer overflows float and, past 4300 digits, int() itself
 
 
 def read_input_bytes(path: Path, what: str, error: type[InputError]) -> bytes:
@@ -102,6 +105,18 @@ BoundedLoader.add_constructor(
 )
 
 
+def _construct_bounded_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    if len(node.value) > MAX_INTEGER_CHARS:
+        raise yaml.constructor.ConstructorError(
+            None, None, f"an integer of {len(node.value)} characters", node.start_mark
+        )
+    value: int = loader.construct_yaml_int(node)
+    return value
+
+
+BoundedLoader.add_constructor("tag:yaml.org,2002:int", _construct_bounded_int)
+
+
 def _children(node: yaml.Node) -> list[yaml.Node]:
     if isinstance(node, yaml.SequenceNode):
         return list(node.value)
@@ -145,3 +160,26 @@ def yaml_problem(exc: yaml.YAMLError) -> str:
             return f"{problem} at line {mark.line + 1}, column {mark.column + 1}"
         return problem
     return " ".join(str(exc).split())
+
+
+def load_json(text: str) -> object:
+    """Parse JSON; every problem (syntax, nesting too deep, a huge integer) is a ``ValueError``
+    whose message is one line with the line and column where they are known."""
+    try:
+        return json.loads(text, parse_int=_bounded_json_int)
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{exc.msg} at line {exc.lineno}, column {exc.colno}") from None
+    except RecursionError:  # json's decoder recurses into nested lists
+        raise ValueError("nested too deeply") from None
+
+
+def _bounded_json_int(text: str) -> int:
+    if len(text) > MAX_INTEGER_CHARS:
+        raise ValueError(f"an integer of {len(text)} characters")
+    return int(text)
+
+
+def shown(value: object) -> str:
+    """``value`` for a one-line message: its repr, cut to 80 characters."""
+    text = repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."

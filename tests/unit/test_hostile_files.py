@@ -66,6 +66,14 @@ CALIBRATION_CASES = {
         ZIVID_HEAD + f"  Data: [[1.0e+308, 0, 0, 500], {ZIVID_IDENTITY_ROWS}]\n",
         r"FloatMatrix.Data row 0 column 0: 1e\+308",
     ),
+    "a 5000-digit integer": (
+        ZIVID_HEAD + f"  Data: [[1, 0, 0, {'1' * 5000}], {ZIVID_IDENTITY_ROWS}]\n",
+        "an integer of 5000 characters at line 3, column 20",
+    ),
+    "a 5000-digit integer in JSON": (
+        f"[[1, 0, 0, {'1' * 5000}], {ZIVID_IDENTITY_ROWS}]",
+        "an integer of 5000 characters",
+    ),
     "1e308 as a numeric string": (
         ZIVID_HEAD + f"  Data: [[1, 0, 0, 1e308], {ZIVID_IDENTITY_ROWS}]\n",
         r"row 0 column 3: 1e\+308",
@@ -194,6 +202,10 @@ DETECTION_CASES = {
         "line 1, column 14",
     ),
     "a syntax error": ("position_mm: [1, 2\norientation: 3\n", "line 2, column 12"),
+    "a megabyte string as position_mm": (
+        f"position_mm: '{'x' * 900_000}'\n",
+        "position_mm: expected a list of 3 numbers, got string 'xxx",
+    ),
     "1e308 in position_mm": (
         "position_mm: [1.0e+308, 1.0e+308, 300]\n",
         "position_mm: camera point",
