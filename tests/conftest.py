@@ -12,6 +12,11 @@ from mocks.ur_controller import SimulatedController
 
 # ur_rtde's ports are fixed (30004, 29999, 30003), so every simulated controller gets its own
 # loopback address. 127.0.0.1 is left to the demo and to people running the mock by hand.
+# ur_rtde's watchdog window in tests: 0.2 s (the production default) trips spuriously when this
+# shared 2-core machine deschedules the simulated controller for longer than that; the test of
+# the watchdog itself sets 0.2 s.
+TEST_WATCHDOG_S = 1.0
+
 _HOSTS: Iterator[str] = (f"127.0.0.{n}" for n in itertools.cycle(range(2, 255)))
 
 

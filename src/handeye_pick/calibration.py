@@ -105,6 +105,9 @@ EYE_TO_HAND_RANGE = _DistanceRange(0.05, 10.0, "camera distance from the robot b
 # The flange of any UR arm is outside the base casing (> 1 cm from the base origin) and within
 # reach (UR20: 1.75 m); 3 m leaves room for a larger arm and still catches mm read as m.
 ROBOT_POSE_RANGE = _DistanceRange(0.01, 3.0, "flange distance from the robot base")
+# A calibration board or marker is detected a few cm to a few metres from a 3D camera; 10 m is
+# beyond any industrial 3D camera's range and still catches mm read as m (and m read as mm).
+OBJECT_POSE_RANGE = _DistanceRange(0.02, 10.0, "calibration object distance from the camera")
 
 _RANGES = {HandEyeMode.EYE_IN_HAND: EYE_IN_HAND_RANGE, HandEyeMode.EYE_TO_HAND: EYE_TO_HAND_RANGE}
 
@@ -199,12 +202,24 @@ def load_hand_eye(
     )
 
 
-def read_robot_pose_file(path: Path, units: LengthUnit = "mm") -> Transform:
+def read_robot_pose_file(
+    path: Path, units: LengthUnit = "mm", flag: str = "--robot-pose-units"
+) -> Transform:
     """Read ``T_base_flange`` (flange pose in the robot base frame, e.g. Zivid's
-    RobotTransform.yaml, mm by default) and return it in metres, unit-checked."""
-    T_base_flange = _parse_transform(_read_bytes(Path(path)), Path(path), units, _pose_units)
-    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, _pose_units)
+    RobotTransform.yaml, mm by default) and return it in metres, unit-checked.
+
+    ``flag`` names the option that declares ``units``, for the unit hint in error messages."""
+    T_base_flange = _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag(flag))
+    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, _flag(flag))
     return T_base_flange
+
+
+def read_object_pose_file(path: Path, units: LengthUnit, flag: str) -> Transform:
+    """Read ``T_cam_obj`` (a calibration object's pose in the camera frame, as a detector
+    measured it) and return it in metres, unit-checked; ``flag`` as for read_robot_pose_file."""
+    T_cam_obj = _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag(flag))
+    _check_distance(T_cam_obj, units, OBJECT_POSE_RANGE, path, _flag(flag))
+    return T_cam_obj
 
 
 def robot_pose_from_ur_vector(pose_m_rad: Sequence[float], source: str) -> Transform:
@@ -233,7 +248,7 @@ def read_transform_file(path: Path, units: LengthUnit) -> Transform:
 
     Validates the rigid transform (see ``geometry.validate_transform``); no magnitude check.
     """
-    return _parse_transform(_read_bytes(Path(path)), Path(path), units, _units_key)
+    return _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag("units"))
 
 
 def write_zivid_transform(path: Path, T_m: Transform, units: LengthUnit = "mm") -> None:
@@ -279,12 +294,9 @@ def _read_bytes(path: Path) -> bytes:
     return read_input_bytes(path, "transform file", CalibrationError)
 
 
-def _pose_units(unit: str) -> str:
-    return f"--robot-pose-units {unit}"
-
-
-def _units_key(unit: str) -> str:
-    return f"units {unit}"
+def _flag(flag: str) -> Callable[[str], str]:
+    """How a command-line option (``flag``) declares a unit, for the unit hints."""
+    return lambda unit: f"{flag} {unit}"
 
 
 def _parse_transform(

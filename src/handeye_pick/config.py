@@ -25,14 +25,16 @@ from handeye_pick.calibration import MAX_ROTVEC_RAD, HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
 from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, shown, yaml_problem
-from handeye_pick.plausibility import CHECKS
-from handeye_pick.robot.port import OutputBank
-from handeye_pick.safety import (
+from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
     MAX_GRASP_SPEED_MPS,
+    MAX_JOINT_ACCEL_RPS2,
+    MAX_JOINT_SPEED_RPS,
     MAX_SPEED_MPS,
     stop_decel_problem,
 )
+from handeye_pick.plausibility import CHECKS
+from handeye_pick.robot.port import OutputBank
 
 # Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
 # real cell uses, so it only fires on a mistake.
@@ -41,6 +43,8 @@ MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
 MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
 MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
 MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
+MAX_REACH_M = MAX_WORKSPACE_MM / 1000.0  # a named or place TCP pose farther out is in mm
+MAX_JOINT_RAD = 2.0 * math.pi  # UR joint range is +-2*pi: a larger value is in degrees
 MIN_WORKSPACE_EXTENT_MM = 10.0  # a box thinner than 1 cm is a box written in metres
 STANDARD_OUTPUTS = 8  # standard digital outputs 0-7 on the control box
 TOOL_OUTPUTS = 2  # tool digital outputs 0-1 on the tool flange connector
@@ -65,6 +69,7 @@ class RobotConfig:
     tcp_offset_tolerance_mm: float = 1.0  # accepted translation difference, controller vs config
     tcp_offset_tolerance_deg: float = 1.0  # accepted rotation difference, controller vs config
     gripper: GripperConfig | None = None  # None: the pick moves only, no output is switched
+    watchdog_s: float = 0.2  # the controller stops the program this long after the PC goes silent
 
 
 @dataclass(frozen=True)
@@ -96,6 +101,8 @@ class MotionConfig:
     grasp_speed_mps: float  # the final move from approach to grasp (m/s)
     stop_decel_mps2: float = 10.0  # stopL deceleration on a fault or Ctrl-C (m/s^2)
     timeout_margin_s: float = 5.0  # added to a move's expected duration before it counts as hung
+    joint_speed_rps: float = 0.5  # moveJ to a named joint pose: fastest joint (rad/s)
+    joint_accel_rps2: float = 1.0  # moveJ to a named joint pose (rad/s^2)
 
 
 @dataclass(frozen=True)
@@ -115,6 +122,33 @@ class AuditConfig:
 
 
 @dataclass(frozen=True)
+class NamedPose:
+    """A pose the cell moves to by name (``capture``, ``home``, ``clear``): exactly one of a
+    joint target (moveJ, rad) or a TCP target in the base frame (moveL, m)."""
+
+    name: str
+    q_rad: tuple[float, ...] | None  # six joint positions (rad), or None
+    T_base_tcp: Transform | None  # TCP pose in base (m), or None
+
+
+@dataclass(frozen=True)
+class PlaceConfig:
+    """Where a picked part is put down: TCP poses in the base frame used in turn (a pallet)."""
+
+    T_base_tcp: tuple[Transform, ...]  # place poses (m), the n-th place uses n % len
+    approach_mm: float  # approach point: place pose moved back along its tool z (mm)
+    retreat_mm: float  # retreat point after the release, the same way back (mm)
+
+
+@dataclass(frozen=True)
+class CaptureConfig:
+    """How a capture latches the flange pose."""
+
+    pose: str | None = None  # named pose a capture moves to first (eye-to-hand: out of view)
+    steady_timeout_s: float = 2.0  # longest wait for the arm to come to rest before latching (s)
+
+
+@dataclass(frozen=True)
 class CellConfig:
     """The whole cell configuration, as loaded from ``path``."""
 
@@ -125,6 +159,17 @@ class CellConfig:
     workspace: WorkspaceConfig
     audit: AuditConfig
     path: Path  # the config file itself (absolute)
+    poses: tuple[NamedPose, ...] = ()  # named poses, in file order
+    place: PlaceConfig | None = None  # None: a pick ends holding the part ("picked")
+    capture: CaptureConfig = field(default_factory=CaptureConfig)
+
+    def pose(self, name: str) -> NamedPose:
+        """The named pose ``name``; ConfigError naming the known ones when it is not defined."""
+        for pose in self.poses:
+            if pose.name == name:
+                return pose
+        known = ", ".join(p.name for p in self.poses) or "none"
+        raise ConfigError(f"{self.path}: poses: no pose named {name!r} (defined: {known})")
 
 
 # --- reading YAML strictly ----------------------------------------------------------------------
@@ -323,9 +368,20 @@ def load_config(path: Path) -> CellConfig:
         read_yaml_mapping(path, ConfigError, "cell config"),
         source=str(path),
         prefix="",
-        allowed=("robot", "hand_eye", "grasp", "motion", "workspace", "audit"),
+        allowed=(
+            "robot",
+            "hand_eye",
+            "grasp",
+            "motion",
+            "workspace",
+            "audit",
+            "poses",
+            "place",
+            "capture",
+        ),
         error=ConfigError,
     )
+    poses = _poses(top) if top.has("poses") else ()
     return CellConfig(
         robot=_robot(top),
         hand_eye=_hand_eye(top, path.parent),
@@ -334,6 +390,9 @@ def load_config(path: Path) -> CellConfig:
         workspace=_workspace(top),
         audit=_audit(top, path.parent),
         path=path,
+        poses=poses,
+        place=_place(top) if top.has("place") else None,
+        capture=_capture(top, poses) if top.has("capture") else CaptureConfig(),
     )
 
 
@@ -360,7 +419,14 @@ def _pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transfor
 def _robot(top: Fields) -> RobotConfig:
     robot = top.section(
         "robot",
-        ("host", "tcp_offset", "tcp_offset_tolerance_mm", "tcp_offset_tolerance_deg", "gripper"),
+        (
+            "host",
+            "tcp_offset",
+            "tcp_offset_tolerance_mm",
+            "tcp_offset_tolerance_deg",
+            "gripper",
+            "watchdog_s",
+        ),
     )
     return RobotConfig(
         host=robot.string("host"),
@@ -380,6 +446,9 @@ def _robot(top: Fields) -> RobotConfig:
             unit="deg",
         ),
         gripper=_gripper(robot) if robot.has("gripper") else None,
+        watchdog_s=robot.number(
+            "watchdog_s", default=RobotConfig.watchdog_s, minimum=0.05, maximum=2.0, unit="s"
+        ),
     )
 
 
@@ -449,7 +518,15 @@ def _grasp(top: Fields) -> GraspConfig:
 def _motion(top: Fields) -> MotionConfig:
     motion = top.section(
         "motion",
-        ("speed_mps", "accel_mps2", "grasp_speed_mps", "stop_decel_mps2", "timeout_margin_s"),
+        (
+            "speed_mps",
+            "accel_mps2",
+            "grasp_speed_mps",
+            "stop_decel_mps2",
+            "timeout_margin_s",
+            "joint_speed_rps",
+            "joint_accel_rps2",
+        ),
     )
     speed = motion.number("speed_mps", above=0.0, maximum=MAX_SPEED_MPS, unit="m/s")
     grasp_speed = motion.number(
@@ -479,6 +556,20 @@ def _motion(top: Fields) -> MotionConfig:
             above=0.0,
             maximum=120.0,
             unit="s",
+        ),
+        joint_speed_rps=motion.number(
+            "joint_speed_rps",
+            default=MotionConfig.joint_speed_rps,
+            above=0.0,
+            maximum=MAX_JOINT_SPEED_RPS,
+            unit="rad/s",
+        ),
+        joint_accel_rps2=motion.number(
+            "joint_accel_rps2",
+            default=MotionConfig.joint_accel_rps2,
+            above=0.0,
+            maximum=MAX_JOINT_ACCEL_RPS2,
+            unit="rad/s^2",
         ),
     )
 
@@ -516,3 +607,69 @@ def _audit(top: Fields, folder: Path) -> AuditConfig:
     if not path.parent.is_dir():
         audit.fail("file", f"folder does not exist: {path.parent}")
     return AuditConfig(file=path)
+
+
+def _poses(top: Fields) -> tuple[NamedPose, ...]:
+    data = top.raw("poses")
+    if not isinstance(data, dict) or not data:
+        top.fail("poses", f"expected a mapping of pose names, got {_describe(data)}")
+    poses = []
+    for name in data:
+        if not isinstance(name, str) or not name.strip():
+            top.fail("poses", f"pose names must be non-empty strings, got {name!r}")
+        pose = top.section("poses", data.keys()).section(name, ("joints_rad", "tcp_pose"))
+        if pose.has("joints_rad") == pose.has("tcp_pose"):
+            pose.fail("", "give exactly one of joints_rad (6 joints, rad) or tcp_pose (m, rad)")
+        if pose.has("joints_rad"):
+            q = pose.vector("joints_rad", 6)
+            if np.any(np.abs(q) > MAX_JOINT_RAD):
+                pose.fail(
+                    "joints_rad",
+                    f"joint positions must lie within +-2*pi rad, got {q.tolist()} "
+                    "(degrees given?)",
+                )
+            poses.append(NamedPose(name, tuple(float(v) for v in q), None))
+        else:
+            poses.append(NamedPose(name, None, _pose_vector(pose, "tcp_pose", MAX_REACH_M)))
+    return tuple(poses)
+
+
+def _place(top: Fields) -> PlaceConfig:
+    place = top.section("place", ("poses", "approach_mm", "retreat_mm"))
+    listed = place.raw("poses")
+    if not isinstance(listed, list) or not listed:
+        place.fail("poses", f"expected a list of TCP poses (m, rad), got {_describe(listed)}")
+    indexed = Fields(
+        {str(i): v for i, v in enumerate(listed)},
+        source=place.source,
+        prefix=place.path("poses"),
+        allowed=[str(i) for i in range(len(listed))],
+        error=ConfigError,
+    )
+    return PlaceConfig(
+        T_base_tcp=tuple(_pose_vector(indexed, str(i), MAX_REACH_M) for i in range(len(listed))),
+        approach_mm=place.number(
+            "approach_mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM, unit="mm"
+        ),
+        retreat_mm=place.number(
+            "retreat_mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM, unit="mm"
+        ),
+    )
+
+
+def _capture(top: Fields, poses: tuple[NamedPose, ...]) -> CaptureConfig:
+    capture = top.section("capture", ("pose", "steady_timeout_s"))
+    name = capture.string("pose") if capture.has("pose") else None
+    if name is not None and name not in {pose.name for pose in poses}:
+        known = ", ".join(pose.name for pose in poses) or "none"
+        capture.fail("pose", f"no pose named {name!r} under poses (defined: {known})")
+    return CaptureConfig(
+        pose=name,
+        steady_timeout_s=capture.number(
+            "steady_timeout_s",
+            default=CaptureConfig.steady_timeout_s,
+            above=0.0,
+            maximum=30.0,
+            unit="s",
+        ),
+    )

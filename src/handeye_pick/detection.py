@@ -12,6 +12,12 @@ Detection file (YAML)::
       # quaternion_wxyz: [1, 0, 0, 0]
       # rpy_deg: {angles: [0, 0, 0], convention: xyz}   # scipy: xyz extrinsic, XYZ intrinsic
       # matrix: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]       # 3x3 rotation, validated
+    capture:                      # optional; eye-in-hand: the flange pose at image acquisition
+      flange_pose_ur: [x, y, z, rx, ry, rz]   # T_base_flange as a UR vector, m and rad
+      # robot_pose_file: RobotTransform.yaml  # or Zivid's 4x4 file (mm), relative to this file
+
+The run loop's candidates are the same mapping as JSON, without ``capture`` (a request names
+its capture by id).
 """
 
 from __future__ import annotations
@@ -23,9 +29,13 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from handeye_pick.calibration import MAX_ROTVEC_RAD
+from handeye_pick.calibration import (
+    MAX_ROTVEC_RAD,
+    read_robot_pose_file,
+    robot_pose_from_ur_vector,
+)
 from handeye_pick.config import Fields, read_yaml_mapping
-from handeye_pick.errors import DetectionError, TransformError
+from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,
     make_transform,
@@ -41,6 +51,7 @@ MIN_DISTANCE_MM = 10.0
 MAX_DISTANCE_MM = 10_000.0
 
 ORIENTATION_KEYS = ("rotvec_rad", "quaternion_xyzw", "quaternion_wxyz", "rpy_deg", "matrix")
+CAPTURE_KEYS = ("flange_pose_ur", "robot_pose_file")
 
 # Bounds on orientation numbers, checked before any arithmetic (which overflows near 1e308).
 # Quaternion and matrix entries: far beyond any rotation's (+-1), so a near miss still gets the
@@ -61,6 +72,7 @@ class Detection:
     T_cam_obj: Transform
     position_only: bool
     source: str  # where it came from, for messages and the audit record
+    T_base_flange_at_capture: Transform | None = None  # from the file's capture section (m)
 
 
 def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
@@ -138,19 +150,38 @@ def _bounded(
 
 def load_detection(path: Path) -> Detection:
     """Read a detection file (format in the module docstring); errors name the file and key."""
-    source = str(path)
-    top = Fields(
-        read_yaml_mapping(Path(path), DetectionError, "detection file"),
-        source=source,
-        prefix="",
-        allowed=("position_mm", "orientation"),
-        error=DetectionError,
-    )
+    path = Path(path)
+    data = read_yaml_mapping(path, DetectionError, "detection file")
+    return detection_from_data(data, str(path), capture_folder=path.parent)
+
+
+def detection_from_data(data: object, source: str, capture_folder: Path | None = None) -> Detection:
+    """A detection from parsed YAML/JSON data (``position_mm``, optional ``orientation``).
+
+    ``capture`` (the flange pose at acquisition) is accepted only with ``capture_folder``, the
+    folder its ``robot_pose_file`` is relative to: files carry it, run-loop requests do not.
+    """
+    allowed = ("position_mm", "orientation") + (("capture",) if capture_folder else ())
+    top = Fields(data, source=source, prefix="", allowed=allowed, error=DetectionError)
     p_mm = top.vector("position_mm", 3)
     _check_point_mm(p_mm, f"{source}: position_mm")
-    if not top.has("orientation"):
-        return Detection(
-            make_transform(np.eye(3), p_mm / 1000.0), position_only=True, source=source
-        )
-    R = _rotation(top.section("orientation", ORIENTATION_KEYS))
-    return Detection(make_transform(R, p_mm / 1000.0), position_only=False, source=source)
+    position_only = not top.has("orientation")
+    R = np.eye(3) if position_only else _rotation(top.section("orientation", ORIENTATION_KEYS))
+    T_base_flange = None
+    if capture_folder is not None and top.has("capture"):
+        T_base_flange = _capture_pose(top.section("capture", CAPTURE_KEYS), capture_folder)
+    return Detection(make_transform(R, p_mm / 1000.0), position_only, source, T_base_flange)
+
+
+def _capture_pose(capture: Fields, folder: Path) -> Transform:
+    """``T_base_flange`` (m) from exactly one of ``flange_pose_ur`` or ``robot_pose_file``."""
+    given = [key for key in CAPTURE_KEYS if capture.has(key)]
+    if len(given) != 1:
+        capture.fail("", f"give exactly one of {', '.join(CAPTURE_KEYS)}; got {given or 'none'}")
+    if given[0] == "flange_pose_ur":
+        pose = capture.vector("flange_pose_ur", 6)
+        try:  # the range check of --robot-pose-ur: no overflow at 1e308, m and rad checked
+            return robot_pose_from_ur_vector(pose.tolist(), "the flange pose")
+        except CalibrationError as exc:
+            capture.fail("flange_pose_ur", str(exc))
+    return read_robot_pose_file(folder / capture.string("robot_pose_file"), units="mm")

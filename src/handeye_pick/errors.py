@@ -41,6 +41,10 @@ class SafetyRefusal(HandEyePickError):
     """A pre-flight check refused the plan, or the cell is not ready; nothing moved (exit 3)."""
 
 
+class CellHalted(SafetyRefusal):
+    """A fault halted the cell: motion is refused until the operator clears it and resumes."""
+
+
 class RobotError(HandEyePickError):
     """The robot or the connection to it failed (exit status 4)."""
 
@@ -67,3 +71,8 @@ class RobotFault(RobotError):
         self.safety_mode = safety_mode
         self.runtime_state = runtime_state
         self.robot_mode = robot_mode
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
+    the outcome), then exit status 143 instead of 130."""

@@ -1,12 +1,14 @@
-"""The pick sequence: check the cell, plan, pre-flight, audit, then approach, grasp, retreat.
+"""The pieces of a cell's motion sequences: the chain, the steps, their checks, the moves, the
+audit records. ``cell.Cell`` puts them in order; nothing here opens a file or a connection.
 
-No file or network I/O of its own: the caller loads the config, calibration and detection,
-connects the arm and opens the audit log. Every pose is a float64 4x4 in metres in the robot base
-frame unless its name says otherwise; audit records carry UR pose vectors (m, rad).
+Frames and units: every pose is a float64 4x4 in metres in the robot base frame unless its name
+says otherwise (``T_base_tcp`` targets, ``T_base_flange`` at capture); joint targets are radians.
+Audit records carry UR pose vectors (m, rad).
 
-Order matters and is the point of this module: nothing moves before the cell is ready, every
-target has passed every pre-flight check, and the plan is on disk. Afterwards the outcome (reached
-poses and their errors, or the fault) is appended for every ending, including Ctrl-C.
+The order a sequence keeps, and the point of this module: nothing moves before the cell is
+ready, every target has passed every pre-flight check and the plan is on disk; the outcome
+(reached poses and their errors, or the fault) is appended for every ending, Ctrl-C included
+(``audited_outcome``).
 """
 
 from __future__ import annotations
@@ -14,32 +16,28 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Callable
-from dataclasses import asdict, dataclass, field, replace
-from typing import TypeVar
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 
 from handeye_pick.audit import AuditLog
 from handeye_pick.calibration import HandEyeCalibration
-from handeye_pick.config import CellConfig
+from handeye_pick.config import CellConfig, PlaceConfig
 from handeye_pick.detection import Detection
-from handeye_pick.errors import RobotError, RobotFault, SafetyRefusal
-from handeye_pick.geometry import (
-    Transform,
-    compose,
-    rotation_angle_between,
-    ur_pose_list,
-)
-from handeye_pick.grasp import PickTargets, backed_off, plan_targets
+from handeye_pick.errors import CellHalted, RobotError, RobotFault, SafetyRefusal, Terminated
+from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
+from handeye_pick.grasp import backed_off, plan_targets
+from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_JOINT_SPEED_RPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
-    MAX_GRASP_SPEED_MPS,
-    MAX_SPEED_MPS,
     CheckResult,
+    ControllerVerdicts,
+    JointTarget,
+    PoseTarget,
     PreflightRefusal,
-    cell_readiness_problems,
     check_motion_command,
     preflight,
 )
@@ -51,19 +49,70 @@ TIMEOUT_FACTOR = 1.5
 ramps) before the margin from the config starts counting."""
 
 STEPS = ("approach", "grasp", "retreat")
-
-ArmT = TypeVar("ArmT")
+PLACE_STEPS = ("place-approach", "place", "place-retreat")
 
 
 @dataclass(frozen=True)
 class PickPlan:
-    """Everything computed before the first motion (base frame, metres)."""
+    """Everything computed before the first motion of a pick (base frame, metres)."""
 
     T_flange_tcp: Transform  # active TCP offset read from the controller
-    T_base_flange: Transform  # flange pose from a fresh RTDE sample
+    T_base_flange: Transform  # flange pose at capture (latched) or read live
     T_base_cam: Transform  # camera in base through the hand-eye calibration
     T_base_obj: Transform  # detected object in base
-    targets: PickTargets  # T_base_tcp for approach, grasp, retreat
+    approach: Transform  # T_base_tcp targets
+    grasp: Transform
+    retreat: Transform
+
+    def target(self, step: str) -> Transform:
+        """The ``T_base_tcp`` target of a pick step (approach, grasp, retreat)."""
+        by_name = {"approach": self.approach, "grasp": self.grasp, "retreat": self.retreat}
+        return by_name[step]
+
+    def targets(self) -> dict[str, Transform]:
+        """The three ``T_base_tcp`` targets by step name, in the order they are moved to."""
+        return {name: self.target(name) for name in STEPS}
+
+    def targets_ur(self) -> dict[str, list[float]]:
+        """The three targets as UR pose vectors (m, rad), for reports and audit records."""
+        return {name: ur_pose_list(T) for name, T in self.targets().items()}
+
+
+@dataclass(frozen=True)
+class Move:
+    """A moveL of the TCP to ``T_base_tcp``.
+
+    ``slow`` moves run at the grasp speed (onto the object or the place). ``fixed`` targets come
+    from the config (place poses, named poses): the controller's verdict on them may be reused
+    for the rest of the session.
+    """
+
+    name: str
+    T_base_tcp: Transform
+    slow: bool = False
+    fixed: bool = False
+
+
+@dataclass(frozen=True)
+class JointMove:
+    """A moveJ to the joint positions ``q_rad`` (rad) of a named pose from the config."""
+
+    name: str
+    q_rad: tuple[float, ...]
+
+
+@dataclass(frozen=True)
+class Grip:
+    """Switch the gripper output: ``close`` grasps, otherwise releases."""
+
+    close: bool
+
+    @property
+    def name(self) -> str:
+        return "gripper close" if self.close else "gripper open"
+
+
+Step = Move | JointMove | Grip
 
 
 @dataclass(frozen=True)
@@ -74,34 +123,18 @@ class StepError:
     rotation_deg: float
 
 
-@dataclass(frozen=True)
-class PickResult:
-    """A pick that ran to the end (or a dry run: nothing reached)."""
-
-    plan: PickPlan
-    checks: list[CheckResult]
-    dry_run: bool
-    reached: dict[str, Transform] = field(default_factory=dict)  # step name -> T_base_tcp
-
-    def errors(self) -> dict[str, StepError]:
-        """Reached pose vs target for every step that ran."""
-        return {
-            name: step_error(target_of(self.plan.targets, name), T_reached)
-            for name, T_reached in self.reached.items()
-        }
-
-
-def target_of(targets: PickTargets, step: str) -> Transform:
-    """The ``T_base_tcp`` target of a step name (approach, grasp, retreat)."""
-    by_name = {"approach": targets.approach, "grasp": targets.grasp, "retreat": targets.retreat}
-    return by_name[step]
-
-
 def step_error(T_target: Transform, T_reached: Transform) -> StepError:
     return StepError(
         position_mm=float(np.linalg.norm(T_reached[:3, 3] - T_target[:3, 3])) * 1000.0,
         rotation_deg=math.degrees(rotation_angle_between(T_target[:3, :3], T_reached[:3, :3])),
     )
+
+
+def trapezoid_s(distance: float, speed: float, accel: float) -> float:
+    """Duration of a trapezoid (or triangle) velocity profile over ``distance`` (any unit)."""
+    if distance >= speed**2 / accel:
+        return distance / speed + speed / accel
+    return 2.0 * math.sqrt(distance / accel)
 
 
 def move_timeout_s(
@@ -116,40 +149,22 @@ def move_timeout_s(
         float(np.linalg.norm(T_to[:3, 3] - T_from[:3, 3])),
         rotation_angle_between(T_from[:3, :3], T_to[:3, :3]),
     )
-    if distance >= speed_mps**2 / accel_mps2:
-        duration = distance / speed_mps + speed_mps / accel_mps2
-    else:
-        duration = 2.0 * math.sqrt(distance / accel_mps2)
-    return duration * TIMEOUT_FACTOR + margin_s
+    return trapezoid_s(distance, speed_mps, accel_mps2) * TIMEOUT_FACTOR + margin_s
 
 
-def plan_pick(
-    config: CellConfig,
-    calibration: HandEyeCalibration,
-    detection: Detection,
-    arm: RobotArm,
-    *,
-    standoff_m: float = 0.0,
-) -> PickPlan:
-    """Refuse an unready cell, read the robot, and chain the detection into TCP targets.
+def joint_move_timeout_s(
+    q_from: Sequence[float],
+    q_to: Sequence[float],
+    speed_rps: float,
+    accel_rps2: float,
+    margin_s: float,
+) -> float:
+    """Upper bound for a moveJ, as ``move_timeout_s`` over the largest joint travel (rad)."""
+    distance = max(abs(b - a) for a, b in zip(q_from, q_to, strict=True))
+    return trapezoid_s(distance, speed_rps, accel_rps2) * TIMEOUT_FACTOR + margin_s
 
-    Raises ``SafetyRefusal`` listing every readiness problem (remote control, stops, TCP offset
-    differing from the config). The chain itself is ``chain_plan`` with the flange read now.
-    """
-    robot = config.robot
-    T_flange_tcp = arm.tcp_offset()
-    problems = cell_readiness_problems(
-        arm.status(),
-        T_flange_tcp,
-        robot.T_flange_tcp,
-        tolerance_mm=robot.tcp_offset_tolerance_mm,
-        tolerance_deg=robot.tcp_offset_tolerance_deg,
-    )
-    if problems:
-        raise SafetyRefusal(f"cell on {robot.host} is not ready: " + "; ".join(problems))
-    return chain_plan(
-        config, calibration, detection, arm.flange_pose(), T_flange_tcp, standoff_m=standoff_m
-    )
+
+# --- planning -----------------------------------------------------------------------------------
 
 
 def chain_plan(
@@ -161,12 +176,12 @@ def chain_plan(
     *,
     standoff_m: float = 0.0,
 ) -> PickPlan:
-    """The hand-eye chain and the TCP targets for a given flange pose; no robot I/O.
+    """The hand-eye chain and the TCP targets for the flange pose at capture; no robot I/O.
 
     ``T_base_obj = T_base_cam @ T_cam_obj``; eye-in-hand ``T_base_cam = T_base_flange @
-    T_flange_cam``. ``standoff_m`` holds the grasp target that far back along its tool z (the
-    touch test stops short of the point); approach and retreat stay where the grasp config puts
-    them.
+    T_flange_cam``. A position-only detection keeps the yaw of the TCP at capture
+    (``T_base_flange @ T_flange_tcp``). ``standoff_m`` holds the grasp target that far back
+    along its tool z (the touch test stops short of the point).
     """
     T_base_cam = calibration.T_base_cam(T_base_flange)
     T_base_obj = compose(T_base_cam, detection.T_cam_obj)
@@ -175,133 +190,171 @@ def chain_plan(
     )
     if standoff_m > 0.0:
         targets = replace(targets, grasp=backed_off(targets.grasp, standoff_m))
-    return PickPlan(T_flange_tcp, T_base_flange, T_base_cam, T_base_obj, targets)
+    return PickPlan(
+        T_flange_tcp,
+        T_base_flange,
+        T_base_cam,
+        T_base_obj,
+        targets.approach,
+        targets.grasp,
+        targets.retreat,
+    )
 
 
-def run_pick(
+def pick_steps(plan: PickPlan, *, grip: bool) -> list[Step]:
+    """Approach, grasp (slow), the gripper closing when ``grip``, retreat."""
+    steps: list[Step] = [
+        Move("approach", plan.approach),
+        Move("grasp", plan.grasp, slow=True),
+    ]
+    if grip:
+        steps.append(Grip(close=True))
+    steps.append(Move("retreat", plan.retreat))
+    return steps
+
+
+def place_steps(T_base_tcp_place: Transform, place: PlaceConfig, *, grip: bool) -> list[Step]:
+    """Approach the place pose from above its tool z, put down (slow), release, retreat."""
+    steps: list[Step] = [
+        Move(
+            "place-approach", backed_off(T_base_tcp_place, place.approach_mm / 1000.0), fixed=True
+        ),
+        Move("place", T_base_tcp_place, slow=True, fixed=True),
+    ]
+    if grip:
+        steps.append(Grip(close=False))
+    steps.append(
+        Move("place-retreat", backed_off(T_base_tcp_place, place.retreat_mm / 1000.0), fixed=True)
+    )
+    return steps
+
+
+def check_steps(
+    config: CellConfig, steps: Sequence[Step], arm: RobotArm, session_verdicts: ControllerVerdicts
+) -> list[CheckResult]:
+    """Every pre-flight check on every move of ``steps`` (``safety.preflight``); raises
+    ``PreflightRefusal`` listing all results when one fails. Verdicts on ``fixed`` targets are
+    kept in ``session_verdicts`` (the caller clears it when the session restarts)."""
+    poses = [PoseTarget(s.name, s.T_base_tcp, s.fixed) for s in steps if isinstance(s, Move)]
+    joints = [JointTarget(s.name, s.q_rad) for s in steps if isinstance(s, JointMove)]
+    return preflight(
+        poses, config.motion, config.workspace, arm, joint_targets=joints, verdicts=session_verdicts
+    )
+
+
+# --- moving -------------------------------------------------------------------------------------
+
+
+def execute(
     config: CellConfig,
-    calibration: HandEyeCalibration,
-    detection: Detection,
-    arm: RobotArm,
-    audit: AuditLog,
-    *,
-    dry_run: bool,
-    progress: Progress,
-    on_plan: Callable[[PickPlan], None] | None = None,
-    before_move: Callable[[str], None] | None = None,
-    standoff_m: float = 0.0,
-) -> PickResult:
-    """Plan, check, audit and (unless ``dry_run``) run approach, grasp, retreat.
-
-    ``on_plan`` is called with the plan as soon as it exists (before the pre-flight checks), so a
-    caller can report it even when the pick is refused or fails later. ``before_move`` is called
-    with the step name right before each move (an operator's confirmation); ``standoff_m`` as in
-    ``chain_plan``. Raises ``SafetyRefusal``
-    (nothing moved), ``RobotError`` (fault during the pick) or ``KeyboardInterrupt`` (after
-    stopL); an outcome record is appended to ``audit`` in every case.
-    """
-    outcome: dict[str, object] = {"event": "outcome", "dry_run": dry_run, "reached": {}}
-    try:
-        plan = plan_pick(config, calibration, detection, arm, standoff_m=standoff_m)
-        if on_plan is not None:
-            on_plan(plan)
-        progress.say("planned: " + _describe_plan(plan))
-        # Until the plan record is written, a refusal's outcome says what was refused.
-        outcome["flange_pose"] = ur_pose_list(plan.T_base_flange)
-        outcome["targets"] = {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS}
-        checks = _checked(config, plan, arm)
-        progress.say(f"pre-flight: {len(checks)} checks passed")
-        audit.append(_plan_record(config, calibration, detection, plan, checks, dry_run))
-        del outcome["flange_pose"], outcome["targets"]
-        result = PickResult(plan, checks, dry_run)
-        if not dry_run:
-            _move(config, plan, arm, progress, result.reached, outcome, before_move)
-    except BaseException as exc:
-        outcome.update(_failure_fields(exc))
-        if isinstance(exc, PreflightRefusal):
-            outcome["checks"] = [asdict(check) for check in exc.results]
-        _append_outcome_keeping_error(audit, outcome)
-        raise
-    outcome["status"] = "dry-run" if dry_run else "done"
-    outcome["errors"] = {name: asdict(error) for name, error in result.errors().items()}
-    audit.append(outcome)
-    return result
-
-
-def connect_audited(audit: AuditLog, connect: Callable[[], ArmT], *, dry_run: bool) -> ArmT:
-    """``connect()``; when it fails (connection refused or lost, cell refusing the control
-    program, Ctrl-C) an outcome record is appended before the error propagates, so a pick that
-    never reached ``run_pick`` is on disk too."""
-    try:
-        return connect()
-    except BaseException as exc:
-        outcome: dict[str, object] = {
-            "event": "outcome",
-            "dry_run": dry_run,
-            "step": "connect",
-            "reached": {},
-        }
-        outcome.update(_failure_fields(exc))
-        _append_outcome_keeping_error(audit, outcome)
-        raise
-
-
-def _checked(config: CellConfig, plan: PickPlan, arm: RobotArm) -> list[CheckResult]:
-    targets = {name: target_of(plan.targets, name) for name in STEPS}
-    return preflight(targets, config.motion, config.workspace, arm)
-
-
-def _move(
-    config: CellConfig,
-    plan: PickPlan,
+    steps: Sequence[Step],
     arm: RobotArm,
     progress: Progress,
-    reached: dict[str, Transform],
     outcome: dict[str, object],
-    before_move: Callable[[str], None] | None,
-) -> None:
-    """The three moves and the gripper; ``reached`` and ``outcome`` are filled as they happen."""
+    before_move: Callable[[str], None] | None = None,
+) -> dict[str, Transform]:
+    """Run ``steps`` in order; returns the reached ``T_base_tcp`` per move name.
+
+    ``outcome["step"]`` names the step running (kept when one fails, removed at the end) and
+    ``outcome["reached"]`` fills as moves end, so the audit says how far a sequence got.
+    ``before_move`` is called with a move's name right before it is sent (an operator's
+    confirmation). Every command's speed is capped again here, whatever the config said.
+    """
     motion, gripper = config.motion, config.robot.gripper
-    T_base_tcp_from = compose(plan.T_base_flange, plan.T_flange_tcp)  # TCP where the plan was read
+    reached: dict[str, Transform] = {}
     reached_ur: dict[str, list[float]] = {}
     outcome["reached"] = reached_ur
-    for name in STEPS:
-        if name == "retreat" and gripper is not None:
-            outcome["step"] = "gripper"
-            with progress.step(f"gripper {gripper.bank.value} output {gripper.index}"):
-                arm.set_digital_output(gripper.bank, gripper.index, gripper.close_value)
+    T_base_tcp_from: Transform | None = None
+    for step in steps:
+        outcome["step"] = step.name
+        if isinstance(step, Grip):
+            if gripper is None:
+                continue
+            value = gripper.close_value if step.close else not gripper.close_value
+            with progress.step(f"{step.name} ({gripper.bank.value} output {gripper.index})"):
+                arm.set_digital_output(gripper.bank, gripper.index, value)
                 time.sleep(gripper.settle_s)
-        outcome["step"] = name
-        T_base_tcp_to = target_of(plan.targets, name)
-        speed_mps, cap_mps = (
-            (motion.grasp_speed_mps, MAX_GRASP_SPEED_MPS)
-            if name == "grasp"
-            else (motion.speed_mps, MAX_SPEED_MPS)
-        )
-        check_motion_command(speed_mps, motion.accel_mps2, max_speed_mps=cap_mps)
-        timeout_s = move_timeout_s(
-            T_base_tcp_from, T_base_tcp_to, speed_mps, motion.accel_mps2, motion.timeout_margin_s
-        )
+            continue
         if before_move is not None:
-            before_move(name)
-        with progress.step(name) as report:
-            reached[name] = arm.move_linear(
-                T_base_tcp_to, speed_mps, motion.accel_mps2, timeout_s, report
+            before_move(step.name)
+        if isinstance(step, JointMove):
+            _check_joint_command(motion.joint_speed_rps)
+            timeout_s = joint_move_timeout_s(
+                arm.joint_positions(),
+                step.q_rad,
+                motion.joint_speed_rps,
+                motion.joint_accel_rps2,
+                motion.timeout_margin_s,
             )
-        reached_ur[name] = ur_pose_list(reached[name])
-        T_base_tcp_from = T_base_tcp_to
+            with progress.step(step.name) as report:
+                reached[step.name] = arm.move_joints(
+                    step.q_rad, motion.joint_speed_rps, motion.joint_accel_rps2, timeout_s, report
+                )
+            T_base_tcp_from = reached[step.name]
+        else:
+            speed_mps, cap_mps = (
+                (motion.grasp_speed_mps, MAX_GRASP_SPEED_MPS)
+                if step.slow
+                else (motion.speed_mps, MAX_SPEED_MPS)
+            )
+            check_motion_command(speed_mps, motion.accel_mps2, max_speed_mps=cap_mps)
+            if T_base_tcp_from is None:
+                T_base_tcp_from = arm.tcp_pose()
+            timeout_s = move_timeout_s(
+                T_base_tcp_from,
+                step.T_base_tcp,
+                speed_mps,
+                motion.accel_mps2,
+                motion.timeout_margin_s,
+            )
+            with progress.step(step.name) as report:
+                reached[step.name] = arm.move_linear(
+                    step.T_base_tcp, speed_mps, motion.accel_mps2, timeout_s, report
+                )
+            T_base_tcp_from = step.T_base_tcp
+        reached_ur[step.name] = ur_pose_list(reached[step.name])
     del outcome["step"]
+    return reached
 
 
-def _failure_fields(exc: BaseException) -> dict[str, object]:
+def _check_joint_command(speed_rps: float) -> None:
+    if not 0.0 < speed_rps <= MAX_JOINT_SPEED_RPS:
+        raise SafetyRefusal(
+            f"motion command refused, nothing sent: joint speed {speed_rps:g} rad/s outside "
+            f"(0, {MAX_JOINT_SPEED_RPS:g}] rad/s"
+        )
+
+
+def reached_errors(steps: Sequence[Step], reached: dict[str, Transform]) -> dict[str, StepError]:
+    """Reached pose vs target for every linear move that ran."""
+    return {
+        step.name: step_error(step.T_base_tcp, reached[step.name])
+        for step in steps
+        if isinstance(step, Move) and step.name in reached
+    }
+
+
+# --- audit --------------------------------------------------------------------------------------
+
+
+def failure_fields(exc: BaseException) -> dict[str, object]:
+    """``status`` and ``error`` of an outcome record for the exception that ended a sequence."""
     if isinstance(exc, KeyboardInterrupt):
-        return {"status": "interrupted", "error": {"type": "KeyboardInterrupt"}}
+        signal_name = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+        return {
+            "status": "interrupted",
+            "error": {"type": type(exc).__name__, "signal": signal_name},
+        }
     error: dict[str, object] = {"type": type(exc).__name__, "message": str(exc)}
     if isinstance(exc, RobotFault):
         error.update(
             safety_mode=exc.safety_mode, runtime_state=exc.runtime_state, robot_mode=exc.robot_mode
         )
-    if isinstance(exc, SafetyRefusal):
+    if isinstance(exc, PreflightRefusal):
+        error["checks"] = [asdict(check) for check in exc.results]
+    if isinstance(exc, CellHalted):
+        status = "halted"
+    elif isinstance(exc, SafetyRefusal):
         status = "refused"
     elif isinstance(exc, RobotError):
         status = "fault"
@@ -310,32 +363,48 @@ def _failure_fields(exc: BaseException) -> dict[str, object]:
     return {"status": status, "error": error}
 
 
-def _append_outcome_keeping_error(audit: AuditLog, outcome: dict[str, object]) -> None:
-    """Append the outcome while another error propagates: a failing audit must not hide it."""
+@contextmanager
+def audited_outcome(audit: AuditLog, outcome: dict[str, object]) -> Iterator[dict[str, object]]:
+    """Append ``outcome`` when the block ends, however it ends.
+
+    The block fills ``outcome`` (``status`` at least) as it goes; when it raises, the failure's
+    ``status`` and ``error`` are added and the record is appended before the error propagates
+    (a failing append is logged and does not hide that error).
+    """
+    try:
+        yield outcome
+    except BaseException as exc:
+        append_failure(audit, outcome, exc)
+        raise
+    audit.append(outcome)
+
+
+def append_failure(audit: AuditLog, outcome: dict[str, object], exc: BaseException) -> None:
+    """Append ``outcome`` with the failure's fields while ``exc`` propagates: a failing append
+    is logged and must not hide ``exc``."""
+    outcome.update(failure_fields(exc))
     try:
         audit.append(outcome)
     except Exception:
-        log.exception("could not append the pick outcome to the audit log: %s", outcome)
+        log.exception("could not append the outcome to the audit log: %s", outcome)
 
 
-def _plan_record(
+def plan_record(
     config: CellConfig,
     calibration: HandEyeCalibration,
     detection: Detection,
     plan: PickPlan,
-    checks: list[CheckResult],
-    dry_run: bool,
+    flange_pose_source: str,
 ) -> dict[str, object]:
+    """The plan part of a pick's audit record: inputs, calibration, chain, pick targets."""
     motion = config.motion
     return {
-        "event": "plan",
-        "dry_run": dry_run,
         "config": str(config.path),
         "host": config.robot.host,
         "detection": {
             "source": detection.source,
             "position_only": detection.position_only,
-            "T_cam_obj": _matrix(detection.T_cam_obj),
+            "T_cam_obj": plan_matrix(detection.T_cam_obj),
         },
         "calibration": {
             "file": str(calibration.path),
@@ -346,20 +415,28 @@ def _plan_record(
         },
         "tcp_offset": ur_pose_list(plan.T_flange_tcp),
         "flange_pose": ur_pose_list(plan.T_base_flange),
-        "T_base_cam": _matrix(plan.T_base_cam),
-        "T_base_obj": _matrix(plan.T_base_obj),
-        "targets": {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS},
+        "flange_pose_source": flange_pose_source,
+        "T_base_cam": plan_matrix(plan.T_base_cam),
+        "T_base_obj": plan_matrix(plan.T_base_obj),
         "motion": {
             "speed_mps": motion.speed_mps,
             "grasp_speed_mps": motion.grasp_speed_mps,
             "accel_mps2": motion.accel_mps2,
         },
-        "checks": [asdict(check) for check in checks],
     }
 
 
-def _describe_plan(plan: PickPlan) -> str:
-    grasp_mm = plan.targets.grasp[:3, 3] * 1000.0
+def steps_record(steps: Sequence[Step]) -> dict[str, object]:
+    """Every move's target (UR vector, m and rad, or joints in rad) in order, for the audit."""
+    return {
+        step.name: ur_pose_list(step.T_base_tcp) if isinstance(step, Move) else list(step.q_rad)
+        for step in steps
+        if not isinstance(step, Grip)
+    }
+
+
+def describe_plan(plan: PickPlan) -> str:
+    grasp_mm = plan.grasp[:3, 3] * 1000.0
     obj_mm = plan.T_base_obj[:3, 3] * 1000.0
     return (
         f"object at [{obj_mm[0]:.1f}, {obj_mm[1]:.1f}, {obj_mm[2]:.1f}] mm in base, "
@@ -367,5 +444,5 @@ def _describe_plan(plan: PickPlan) -> str:
     )
 
 
-def _matrix(T: Transform) -> list[list[float]]:
+def plan_matrix(T: Transform) -> list[list[float]]:
     return [[float(v) for v in row] for row in T]

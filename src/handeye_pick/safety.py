@@ -11,14 +11,21 @@ tilt is the angle between the tool z axis and straight down (base -z), in degree
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
+from handeye_pick.config import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.limits import (
+    MAX_ACCEL_MPS2,
+    MAX_GRASP_SPEED_MPS,
+    MAX_SPEED_MPS,
+    UR_MAX_SPEED_MPS,
+    stop_decel_problem,
+)
 from handeye_pick.robot.port import (
     RobotArm,
     RobotMode,
@@ -27,19 +34,6 @@ from handeye_pick.robot.port import (
     SafetyMode,
     mode_name,
 )
-
-if TYPE_CHECKING:  # config imports the caps below; the types are only needed for annotations
-    from handeye_pick.config import MotionConfig, WorkspaceConfig
-
-# ur_rtde refuses a moveL/stopL outside these (its own argument check).
-UR_MAX_SPEED_MPS = 3.0
-UR_MAX_ACCEL_MPS2 = 150.0
-
-# Stricter caps for a camera-guided pick: the target is only as good as the calibration and the
-# detection, so the arm moves slowly enough for an operator to hit the stop in time.
-MAX_SPEED_MPS = 1.0  # approach and retreat moves
-MAX_GRASP_SPEED_MPS = 0.25  # the final move onto the object (UR's default moveL speed)
-MAX_ACCEL_MPS2 = 4.0  # every move; UR's default moveL acceleration is 1.2 m/s^2
 
 
 @dataclass(frozen=True)
@@ -102,17 +96,6 @@ def check_motion_command(
         raise SafetyRefusal(f"motion command refused, nothing sent: {'; '.join(problems)}")
 
 
-def stop_decel_problem(stop_decel_mps2: float, accel_mps2: float) -> str | None:
-    """None when the stopL deceleration is at least the moves' acceleration and within ur_rtde's
-    limit: stopping after a fault must never be gentler than starting."""
-    if accel_mps2 <= stop_decel_mps2 <= UR_MAX_ACCEL_MPS2:
-        return None
-    return (
-        f"stop deceleration {stop_decel_mps2:g} m/s^2 outside [{accel_mps2:g} (the move "
-        f"acceleration), {UR_MAX_ACCEL_MPS2:g}] m/s^2"
-    )
-
-
 def _motion_checks(speeds: MotionConfig) -> list[CheckResult]:
     checks = {
         "speed": _speed_problem("speed", speeds.speed_mps, MAX_SPEED_MPS, "m/s"),
@@ -160,6 +143,24 @@ ControllerVerdicts = dict[bytes, tuple[bool, bool]]
 """The controller's (within safety limits, has IK) per target, keyed by the target's bytes."""
 
 
+@dataclass(frozen=True)
+class PoseTarget:
+    """A moveL target ``T_base_tcp`` (m) to check. ``fixed`` targets come from the config
+    (place and named poses): the controller's verdict on them may be reused in a session."""
+
+    name: str
+    T_base_tcp: Transform
+    fixed: bool = False
+
+
+@dataclass(frozen=True)
+class JointTarget:
+    """A moveJ target (joint positions, rad) of a named pose; always a fixed target."""
+
+    name: str
+    q_rad: tuple[float, ...]
+
+
 def _ask_controller(
     T_base_tcp: Transform, arm: RobotArm, asked: ControllerVerdicts
 ) -> tuple[bool, bool]:
@@ -175,14 +176,13 @@ def _target_checks(
     name: str,
     T_base_tcp: Transform,
     workspace: WorkspaceConfig,
-    arm: RobotArm,
-    asked: ControllerVerdicts,
+    verdict: tuple[bool, bool],
 ) -> list[CheckResult]:
     p_mm = np.round(T_base_tcp[:3, 3] * 1000.0, 1).tolist()
     where = f"the TCP at {p_mm} mm"
     box = workspace_problem(T_base_tcp, workspace)
     tilt = tilt_deg(T_base_tcp)
-    within, reachable = _ask_controller(T_base_tcp, arm, asked)
+    within, reachable = verdict
     return [
         CheckResult(
             "workspace",
@@ -211,22 +211,47 @@ def _target_checks(
     ]
 
 
+def _joint_checks(target: JointTarget, arm: RobotArm, verdicts: ControllerVerdicts) -> CheckResult:
+    key = np.array(target.q_rad).tobytes()
+    if key not in verdicts:
+        within = arm.joints_within_safety_limits(target.q_rad)
+        verdicts[key] = (within, within)
+    within = verdicts[key][0]
+    q_deg = np.round(np.degrees(target.q_rad), 1).tolist()
+    return CheckResult(
+        "joint_safety_limits",
+        target.name,
+        within,
+        f"controller safety limits {'accept' if within else 'refuse'} joints {q_deg} deg",
+    )
+
+
 def preflight(
-    targets: Mapping[str, Transform],
+    targets: Sequence[PoseTarget],
     speeds: MotionConfig,
     workspace: WorkspaceConfig,
     arm: RobotArm,
+    *,
+    joint_targets: Sequence[JointTarget] = (),
+    verdicts: ControllerVerdicts | None = None,
 ) -> list[CheckResult]:
-    """Run every check on every ``T_base_tcp`` target and on the motion parameters.
+    """Run every check on every target and on the motion parameters.
 
+    Pose targets (``T_base_tcp``): workspace box, tilt, the controller's safety limits and IK.
+    Joint targets (a named pose taught on the pendant): the controller's joint safety limits.
     Returns all results when every check passed; otherwise raises ``PreflightRefusal`` carrying
     all results (for the audit record). Only asks the controller, never moves it, and asks once
-    per distinct target; a controller that cannot answer raises its ``RobotError`` unchanged.
+    per distinct target; verdicts on fixed targets are kept in ``verdicts`` for the caller's
+    session. A controller that cannot answer raises its ``RobotError`` unchanged.
     """
     results = _motion_checks(speeds)
     asked: ControllerVerdicts = {}
-    for name, T_base_tcp in targets.items():
-        results.extend(_target_checks(name, T_base_tcp, workspace, arm, asked))
+    session = verdicts if verdicts is not None else {}
+    for target in targets:
+        cache = session if target.fixed else asked
+        verdict = _ask_controller(target.T_base_tcp, arm, cache)
+        results.extend(_target_checks(target.name, target.T_base_tcp, workspace, verdict))
+    results.extend(_joint_checks(target, arm, session) for target in joint_targets)
     if not all(r.passed for r in results):
         raise PreflightRefusal(results)
     return results

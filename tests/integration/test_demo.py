@@ -30,6 +30,6 @@ def test_simulated_pick_demo_runs_to_the_end(tmp_path: Path) -> None:
         check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr
-    assert "pick done" in result.stdout
+    assert "pick picked" in result.stdout
     for step in ("approach", "grasp", "retreat"):
         assert f"{step} done in" in result.stderr

@@ -8,6 +8,8 @@ code under test; motions are checked in the controller's command record.
 from __future__ import annotations
 
 import json
+import os
+import pty
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -216,29 +218,53 @@ def test_touch_test_descends_slowly_to_the_standoff_and_back(
         ur_pose_to_matrix(list(ctl.snapshot().tcp_pose)), approach, atol=1e-6
     )
     plan, outcome = audit_records(tmp_path)
-    assert (plan["event"], outcome["event"], outcome["status"]) == ("plan", "outcome", "done")
+    assert (plan["event"], outcome["event"], outcome["status"]) == ("plan", "outcome", "picked")
     assert plan["detection"]["source"].startswith("touch-test")
     assert all(check["passed"] for check in plan["checks"])
     np.testing.assert_allclose(ur_pose_to_matrix(plan["targets"]["grasp"]), standoff, atol=1e-9)
 
 
-def test_touch_test_confirm_waits_for_enter(sim_controller: SimFactory, tmp_path: Path) -> None:
-    # Two arms: the camera rides on the flange, so after one run the same pixel means a new point.
-    for answer, expected_moves, expected_status in (("", 1, 130), ("\n", 3, 0)):
-        ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
-        config = write_config(tmp_path, ctl.host)
-        point = expected_point_base_m(ctl)
-        args = ("--config", str(config), "--xyz", *POINT_CAM_MM, "--confirm", "--json")
-        result = cli("touch-test", *args, stdin=answer)
-        assert result.returncode == expected_status, result.stderr
-        assert "press Enter to descend" in result.stderr
-        moves = [c for c in ctl.commands if c["kind"].startswith("move")]
-        # Without an answer (stdin closed) the arm stays at the approach point: no descent.
-        assert len(moves) == expected_moves
-        assert audit_records(tmp_path)[-1]["status"] == ("done" if answer else "interrupted")
-        report = json.loads(result.stdout)  # the prompt never mixes into the JSON
-        np.testing.assert_allclose(report["point_base_mm"], point * 1000.0, atol=1e-6)
-        assert report["status"] == ("done" if answer else "failed")
+def test_touch_test_confirm_waits_for_enter_on_a_terminal(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    config = write_config(tmp_path, ctl.host)
+    point = expected_point_base_m(ctl)
+    args = ("--config", str(config), "--xyz", *POINT_CAM_MM, "--confirm", "--json")
+    terminal, terminal_side = pty.openpty()  # a person at a terminal presses Enter
+    try:
+        os.write(terminal, b"\n")
+        result = subprocess.run(
+            [*CLI, "touch-test", *args],
+            cwd=ROOT,
+            stdin=terminal_side,
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+    finally:
+        os.close(terminal)
+        os.close(terminal_side)
+    assert result.returncode == 0, result.stderr
+    assert "press Enter to descend" in result.stderr
+    assert len([c for c in ctl.commands if c["kind"].startswith("move")]) == 3
+    assert audit_records(tmp_path)[-1]["status"] == "picked"
+    report = json.loads(result.stdout)  # the prompt never mixes into the JSON
+    np.testing.assert_allclose(report["point_base_mm"], point * 1000.0, atol=1e-6)
+    assert report["status"] == "done"
+
+
+def test_touch_test_confirm_without_a_terminal_refuses_before_moving(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    config = write_config(tmp_path, ctl.host)
+    result = cli(
+        "touch-test", "--config", str(config), "--xyz", *POINT_CAM_MM, "--confirm", stdin="\n"
+    )
+    assert result.returncode == 2, result.stderr
+    assert "not a terminal" in result.stderr
+    assert ctl.commands == []
 
 
 def test_touch_test_refuses_a_standoff_beyond_the_approach(

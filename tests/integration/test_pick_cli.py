@@ -8,6 +8,7 @@ snapshot, never against our own arithmetic alone.
 from __future__ import annotations
 
 import json
+import re
 import signal
 import subprocess
 import sys
@@ -23,6 +24,7 @@ from handeye_pick.calibration import load_hand_eye
 from handeye_pick.detection import load_detection
 from handeye_pick.geometry import ur_pose_to_matrix
 from mocks.ur_controller import SimulatedController
+from tests.conftest import TEST_WATCHDOG_S
 
 SimFactory = Callable[..., SimulatedController]
 ROOT = Path(__file__).resolve().parents[2]
@@ -44,8 +46,9 @@ def write_config(tmp_path: Path, host: str, **overrides: str) -> Path:
         "workspace": "  min_mm: [-800, -800, 20]\n  max_mm: [800, 800, 700]\n  max_tilt_deg: 30\n",
         "audit": "  file: picks.jsonl\n",
     }
-    sections.update({k: v for k, v in overrides.items() if k != "robot_extra"})
+    sections.update({k: v for k, v in overrides.items() if k not in ("robot_extra", "watchdog_s")})
     text = f"robot:\n  host: {host}\n  tcp_offset: {list(TCP_OFFSET)}\n"
+    text += f"  watchdog_s: {overrides.get('watchdog_s', TEST_WATCHDOG_S)}\n"
     text += overrides.get("robot_extra", "")
     text += "".join(f"{name}:\n{body}" for name, body in sections.items())
     path = tmp_path / "cell.yaml"
@@ -95,7 +98,7 @@ def test_eye_in_hand_pick_with_tcp_offset(sim_controller: SimFactory, tmp_path: 
         write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
     )
     assert status == 0, report
-    assert report["status"] == "done"
+    assert report["status"] == "picked"
     assert_pose(report["flange_pose"], flange_before)
     # The chain from the controller's own flange, not from anything our code read.
     T_flange_cam = load_hand_eye(DEMO / "hand_eye.yaml", "eye-in-hand", "mm").T_cal
@@ -109,7 +112,7 @@ def test_eye_in_hand_pick_with_tcp_offset(sim_controller: SimFactory, tmp_path: 
     assert [m["speed"] for m in moves] == [0.25, 0.1, 0.25]
     assert_pose(ctl.snapshot().tcp_pose, report["targets"]["retreat"])
     plan, outcome = audit_records(tmp_path)
-    assert (plan["event"], outcome["event"], outcome["status"]) == ("plan", "outcome", "done")
+    assert (plan["event"], outcome["event"], outcome["status"]) == ("plan", "outcome", "picked")
     assert plan["pick_id"] == outcome["pick_id"] == report["pick_id"]
     assert plan["targets"] == report["targets"]
     assert outcome["errors"]["grasp"]["position_mm"] < 0.01
@@ -194,8 +197,19 @@ def test_progress_lines_and_summary_for_a_person(
     for expected in ("connecting to", "planned:", "approach", "grasp", "retreat"):
         assert any(line.startswith(expected) for line in lines), (expected, lines)
     assert any(line.startswith("retreat done in") for line in lines)
-    assert "pick done" in result.stdout
-    assert "moveL" in (tmp_path / "debug.log").read_text()
+    assert "pick picked" in result.stdout
+    log = (tmp_path / "debug.log").read_text()
+    # Every controller call with its duration: the TCP offset, the steady flange pose, each
+    # pre-flight query, the readiness bits and the moves.
+    for call in (
+        "tcp_offset()",
+        "fresh_sample()",
+        "is_pose_within_safety_limits(",
+        "has_ik_solution(",
+        "remote_control()",
+        "move_l_async(",
+    ):
+        assert re.search(rf"{re.escape(call)}.* -> ok .* in \d+\.\d\d ms", log), call
 
 
 # --- refusals: nothing moves ----------------------------------------------------------------------
@@ -331,18 +345,20 @@ def test_controller_that_stops_answering_ends_the_pick(
     assert audit_records(tmp_path)[-1]["status"] == "fault"
 
 
-def test_remote_control_switched_off_mid_pick_does_not_stop_a_running_program(
+def test_remote_control_switched_off_mid_pick_refuses_the_next_move(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
-    # Only the dashboard's answer changes; the control program keeps running, so the pick ends.
+    # Only the dashboard's answer changes and the running move ends; the readiness bits are
+    # checked again before every move, so the retreat is never sent (exit 3).
     ctl = sim_controller(
         tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("remote-control-off@move:2:0.5",)
     )
     status, report = run_json(
         write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
     )
-    assert status == 0, report
-    assert len(motion_commands(ctl)) == 3
+    assert status == 3, report
+    assert "local control" in str(report["error"])
+    assert len(motion_commands(ctl)) == 2
 
 
 def test_ctrl_c_during_a_slow_move(sim_controller: SimFactory, tmp_path: Path) -> None:

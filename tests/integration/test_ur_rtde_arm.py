@@ -21,6 +21,7 @@ from handeye_pick.geometry import Transform, ur_pose_to_matrix
 from handeye_pick.robot.port import OutputBank, RuntimeState, SafetyMode
 from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
+from tests.conftest import TEST_WATCHDOG_S
 
 SimFactory = Callable[..., SimulatedController]
 TCP_OFFSET = (0.01, -0.02, 0.15, 0.0, 0.0, 0.4)  # shifted, and turned about the tool axis
@@ -50,7 +51,7 @@ def _assert_pose_close(T: Transform, ur_pose: Any, atol: float = 1e-6) -> None:
 
 def test_flange_and_tcp_with_a_non_zero_tcp_offset(sim_controller: SimFactory) -> None:
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         snapshot = ctl.snapshot()
         _assert_pose_close(arm.tcp_offset(), TCP_OFFSET)
         _assert_pose_close(arm.flange_pose(), snapshot.flange_pose)
@@ -66,7 +67,7 @@ def test_flange_and_tcp_with_a_non_zero_tcp_offset(sim_controller: SimFactory) -
 
 def test_flange_is_fresh_after_a_move(sim_controller: SimFactory) -> None:
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         target = _lowered(arm.tcp_pose(), 0.05)
         reached = arm.move_linear(target, 0.25, 1.2, timeout_s=5.0)
         np.testing.assert_allclose(reached, target, atol=1e-6)
@@ -81,7 +82,7 @@ def test_flange_is_fresh_after_a_move(sim_controller: SimFactory) -> None:
 def test_progress_rises_to_one(sim_controller: SimFactory) -> None:
     ctl = sim_controller(speed_factor=4.0)
     fractions: list[float] = []
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, 5.0, fractions.append)
     assert fractions[-1] == 1.0
     assert fractions == sorted(fractions)
@@ -90,7 +91,7 @@ def test_progress_rises_to_one(sim_controller: SimFactory) -> None:
 
 def test_safety_queries(sim_controller: SimFactory) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         near = _lowered(arm.tcp_pose(), 0.05)
         far = near.copy()
         far[:3, 3] = [3.0, 0.0, 0.3]  # beyond a UR5e's reach
@@ -106,7 +107,7 @@ def test_safety_queries(sim_controller: SimFactory) -> None:
 )
 def test_digital_output(sim_controller: SimFactory, bank: OutputBank, field: str) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host, with_io=True) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, with_io=True) as arm:
         arm.set_digital_output(bank, 1, True)
         assert _eventually(lambda: getattr(ctl.snapshot(), field) == 0b10)
         arm.set_digital_output(bank, 1, False)
@@ -126,7 +127,10 @@ def test_fault_during_a_move_is_a_robot_fault_with_state(
     sim_controller: SimFactory, fault: str, safety_mode: int
 ) -> None:
     ctl = sim_controller(speed_factor=4.0, inject=(fault,))
-    with URRtdeArm(ctl.host) as arm, pytest.raises(RobotFault) as caught:
+    with (
+        URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm,
+        pytest.raises(RobotFault) as caught,
+    ):
         arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, timeout_s=5.0)
     assert caught.value.safety_mode == safety_mode
     assert str(ctl.host) in str(caught.value)
@@ -139,7 +143,7 @@ def test_connection_drop_ends_the_session_and_leaves_this_process_alive(
     sim_controller: SimFactory,
 ) -> None:
     ctl = sim_controller(speed_factor=2.0, inject=("drop-connection@move:1:0.3",))
-    arm = URRtdeArm(ctl.host)
+    arm = URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S)
     try:
         with pytest.raises(RobotConnectionError, match=r"dropped|no RTDE data|process"):
             arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, timeout_s=5.0)
@@ -156,14 +160,20 @@ def test_connection_drop_ends_the_session_and_leaves_this_process_alive(
 
 def test_stalled_stream_is_a_lost_link(sim_controller: SimFactory) -> None:
     ctl = sim_controller(speed_factor=1.0, inject=("stall:1.5@move:1:0.2",))
-    with URRtdeArm(ctl.host) as arm, pytest.raises(RobotConnectionError, match="no RTDE data"):
+    with (
+        URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm,
+        pytest.raises(RobotConnectionError, match="no RTDE data"),
+    ):
         arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, timeout_s=5.0)
     assert [c["kind"] for c in ctl.commands if c["kind"] in MOTION_KINDS] == ["moveL"]
 
 
 def test_timeout_sends_stopl(sim_controller: SimFactory) -> None:
     ctl = sim_controller(speed_factor=0.5)
-    with URRtdeArm(ctl.host) as arm, pytest.raises(RobotFault, match="did not finish"):
+    with (
+        URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm,
+        pytest.raises(RobotFault, match="did not finish"),
+    ):
         arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, timeout_s=0.3)
     assert [c["kind"] for c in ctl.commands] == ["moveL", "stopL"]
     assert not ctl.snapshot().moving
@@ -171,7 +181,7 @@ def test_timeout_sends_stopl(sim_controller: SimFactory) -> None:
 
 def test_slow_controller_answer_ends_the_session(sim_controller: SimFactory) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host, call_timeout_s=1.0) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, call_timeout_s=1.0) as arm:
         ctl.inject("slow:3")
         with pytest.raises(RobotConnectionError, match="no answer"):
             arm.has_ik_solution(arm.tcp_pose())
@@ -186,7 +196,7 @@ def test_ctrl_c_during_a_move_sends_stopl_and_propagates(sim_controller: SimFact
         if fraction > 0.2:
             raise KeyboardInterrupt
 
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         with pytest.raises(KeyboardInterrupt):
             arm.move_linear(_lowered(arm.tcp_pose(), 0.10), 0.25, 1.2, 5.0, interrupt_halfway)
         assert arm.status().runtime_state == RuntimeState.PLAYING  # session still usable
@@ -199,7 +209,7 @@ def test_ctrl_c_during_a_move_sends_stopl_and_propagates(sim_controller: SimFact
 def test_remote_control_off_is_refused_at_connect(sim_controller: SimFactory) -> None:
     ctl = sim_controller(remote_control=False)
     with pytest.raises(SafetyRefusal, match="Remote Control"):
-        URRtdeArm(ctl.host)
+        URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S)
 
 
 def test_refused_rtde_start_is_a_connection_error(sim_controller: SimFactory) -> None:
@@ -207,17 +217,17 @@ def test_refused_rtde_start_is_a_connection_error(sim_controller: SimFactory) ->
     # returning zeros: that must not pass for a robot at the origin.
     ctl = sim_controller(instant=True, inject=("refuse-start",))
     with pytest.raises(RobotConnectionError, match="no RTDE data"):
-        URRtdeArm(ctl.host)
+        URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S)
 
 
 def test_nothing_listening_is_a_connection_error(loopback_host: str) -> None:
     with pytest.raises(RobotConnectionError, match="30004"):
-        URRtdeArm(loopback_host)
+        URRtdeArm(loopback_host, watchdog_s=TEST_WATCHDOG_S)
 
 
 def test_protective_stop_refuses_a_move(sim_controller: SimFactory) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         target = _lowered(arm.tcp_pose(), 0.05)
         ctl.inject("protective-stop")
         assert _eventually(lambda: arm.status().protective_stopped)  # RTDE shows it a cycle later
@@ -231,7 +241,7 @@ def test_no_move_is_sent_after_a_drop_between_moves(sim_controller: SimFactory) 
     # ur_rtde's control interface reconnects by itself after a drop; no motion may go through
     # it, whichever layer (our link check, ur_rtde's own program check) catches it first.
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         target = _lowered(arm.tcp_pose(), 0.05)
         ctl.inject("drop-connection")
         assert _eventually(lambda: ctl.commands == [] and not ctl.snapshot().moving)
@@ -247,16 +257,16 @@ def motion_kinds(ctl: SimulatedController) -> list[str]:
 
 def test_second_client_is_told_who_holds_the_registers(sim_controller: SimFactory) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host) as first:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as first:
         with pytest.raises(RobotConnectionError, match="held by another RTDE client"):
-            URRtdeArm(ctl.host)
+            URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S)
         assert first.status().runtime_state == RuntimeState.PLAYING  # the first one still works
 
 
 def test_a_crashed_ur_rtde_process_is_a_connection_error(sim_controller: SimFactory) -> None:
     # What a segfault in ur_rtde's reconnect loop looks like from here.
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         arm._process.kill()  # the child that holds ur_rtde
         with pytest.raises(RobotConnectionError, match=r"died|closed its pipe|is gone"):
             arm.tcp_pose()
@@ -270,7 +280,7 @@ def test_timeout_stretches_with_the_speed_slider(sim_controller: SimFactory) -> 
     slider = "import rtde_io, sys; io = rtde_io.RTDEIOInterface(sys.argv[1]); "
     slider += "sys.exit(0 if io.setSpeedSlider(0.25) else 1)"
     subprocess.run([sys.executable, "-c", slider, ctl.host], check=True, timeout=30)
-    with URRtdeArm(ctl.host) as arm:
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
         target = _lowered(arm.tcp_pose(), 0.10)  # 0.61 s at full speed, 2.4 s at 25 %
         reached = arm.move_linear(target, 0.25, 1.2, timeout_s=1.2)
     np.testing.assert_allclose(reached, target, atol=1e-6)

@@ -375,3 +375,79 @@ def test_yaml_merge_keys_may_override_but_plain_duplicates_may_not(tmp_path: Pat
     path.write_text("d:\n  b: 1\n  b: 3\n")
     with pytest.raises(ConfigError, match="key 'b' appears twice"):
         read_yaml_mapping(path, ConfigError)
+
+
+# --- poses, place, capture ------------------------------------------------------------------------
+
+CELL_SECTIONS: dict[str, Any] = {
+    "poses": {
+        "capture": {"joints_rad": [0, -1.5708, 1.5708, -1.5708, -1.5708, 0]},
+        "home": {"tcp_pose": [-0.4, -0.1, 0.45, 3.14159, 0, 0]},
+    },
+    "place": {"poses": [[-0.3, 0.35, 0.15, 3.14159, 0, 0]], "approach_mm": 80, "retreat_mm": 70},
+    "capture": {"pose": "capture", "steady_timeout_s": 1.5},
+}
+
+
+def test_named_poses_place_and_capture_load_in_their_units(cell: Path) -> None:
+    data = {**copy.deepcopy(BASE), **copy.deepcopy(CELL_SECTIONS)}
+    config = load_config(_write(cell, data))
+    capture, home = config.poses
+    assert (capture.name, capture.q_rad, capture.T_base_tcp) == (
+        "capture",
+        (0.0, -1.5708, 1.5708, -1.5708, -1.5708, 0.0),
+        None,
+    )
+    assert home.q_rad is None
+    assert home.T_base_tcp is not None
+    np.testing.assert_allclose(home.T_base_tcp[:3, 3], [-0.4, -0.1, 0.45])
+    assert config.pose("home") is home
+    assert config.place is not None
+    np.testing.assert_allclose(config.place.T_base_tcp[0][:3, 3], [-0.3, 0.35, 0.15])
+    assert (config.place.approach_mm, config.place.retreat_mm) == (80.0, 70.0)
+    assert (config.capture.pose, config.capture.steady_timeout_s) == ("capture", 1.5)
+    with pytest.raises(ConfigError, match=r"no pose named 'away' \(defined: capture, home\)"):
+        config.pose("away")
+
+
+def test_a_config_without_the_cell_sections_has_none(cell: Path) -> None:
+    config = _load_with(cell)
+    assert (config.poses, config.place, config.capture.pose) == ((), None, None)
+
+
+@pytest.mark.parametrize(
+    ("section", "value", "key", "message"),
+    [
+        ("poses", {"home": {"joints_rad": [0, 90, 0, 0, 0, 0]}}, "poses.home.joints_rad", "deg"),
+        ("poses", {"home": {"tcp_pose": [400, 0, 300, 0, 0, 0]}}, "poses.home.tcp_pose", "metres"),
+        ("poses", {"home": {"joints_rad": [0] * 6, "tcp_pose": [0] * 6}}, "poses.home", "one of"),
+        ("poses", {"home": {}}, "poses.home", "exactly one"),
+        ("poses", {"home": {"joint_rad": [0] * 6}}, "poses.home.joint_rad", "unknown key"),
+        ("poses", [], "poses", "mapping"),
+        ("place", {"poses": [], "approach_mm": 80, "retreat_mm": 80}, "place.poses", "list"),
+        (
+            "place",
+            {"poses": [[-300, 350, 150, 3.1, 0, 0]], "approach_mm": 80, "retreat_mm": 80},
+            "place.poses.0",
+            "metres",
+        ),
+        (
+            "place",
+            {"poses": [[-0.3, 0.3, 0.1, 0, 0, 0]], "approach_mm": 0.08, "retreat_mm": 80},
+            "place.approach_mm",
+            "at least",
+        ),
+        ("capture", {"pose": "nowhere"}, "capture.pose", "no pose named"),
+    ],
+)
+def test_bad_cell_sections_are_refused_naming_the_key(
+    cell: Path, section: str, value: object, key: str, message: str
+) -> None:
+    data = {**copy.deepcopy(BASE), section: value}
+    with pytest.raises(ConfigError, match=rf"{key}: .*{message}"):
+        load_config(_write(cell, data))
+
+
+def test_joint_speed_caps_are_enforced(cell: Path) -> None:
+    with pytest.raises(ConfigError, match=r"motion.joint_speed_rps: must be at most 1.05"):
+        _load_with(cell, motion__joint_speed_rps=2.0)

@@ -1,4 +1,5 @@
-"""The pick sequence against a scripted RobotArm: order, chain, refusals, audit on every ending.
+"""The cell's pick sequence against a scripted RobotArm: order, chain, refusals, audit on every
+ending, candidates, place, named poses, capture latching, halt and resume.
 
 The fake stands in for the RobotArm port (our own Protocol), not for ur_rtde; the real adapter
 is covered end to end in tests/integration against the simulated controller.
@@ -6,6 +7,7 @@ is covered end to end in tests/integration against the simulated controller.
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import json
 import math
@@ -15,18 +17,18 @@ import numpy as np
 import pytest
 
 from handeye_pick import progress as progress_module
-from handeye_pick.audit import AuditLog
 from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
+from handeye_pick.cell import Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.config import CellConfig, load_config
 from handeye_pick.detection import Detection, detection_from_point_mm
-from handeye_pick.errors import RobotFault, SafetyRefusal
+from handeye_pick.errors import CellHalted, RobotFault, SafetyRefusal
 from handeye_pick.geometry import (
     Transform,
     make_transform,
     rotation_from_euler,
     ur_pose_to_matrix,
 )
-from handeye_pick.pick import move_timeout_s, run_pick
+from handeye_pick.pick import move_timeout_s
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import OutputBank, ProgressCallback, RobotStatus
 from handeye_pick.safety import PreflightRefusal
@@ -56,7 +58,9 @@ class ScriptedArm:
         self.audit_path = audit_path
         self.status_value = READY
         self.T_flange_tcp = T_FLANGE_TCP
+        self.T_base_flange = T_BASE_FLANGE.copy()
         self.within_limits = True
+        self.refuse_below_z_m: float | None = None  # safety limits refuse TCP targets below
         self.fail_on_move: int | None = None  # 1-based index of the move that fails
         self.failure: BaseException = RobotFault("protective stop", safety_mode=3, runtime_state=2)
         self.calls: list[tuple[str, object]] = []
@@ -69,12 +73,25 @@ class ScriptedArm:
         return self.T_flange_tcp
 
     def tcp_pose(self) -> Transform:
-        return T_BASE_FLANGE @ self.T_flange_tcp
+        return self.T_base_flange @ self.T_flange_tcp
 
     def flange_pose(self) -> Transform:
-        return T_BASE_FLANGE.copy()
+        return self.T_base_flange.copy()
+
+    def steady_flange_pose(self, timeout_s: float) -> Transform:
+        self.calls.append(("steady", timeout_s))
+        return self.T_base_flange.copy()
+
+    def joint_positions(self) -> tuple[float, ...]:
+        return (0.0, -1.57, 1.57, -1.57, -1.57, 0.0)
+
+    def joints_within_safety_limits(self, q_rad: object) -> bool:
+        return self.within_limits
 
     def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
+        self.calls.append(("ask", T_base_tcp.copy()))
+        if self.refuse_below_z_m is not None and T_base_tcp[2, 3] < self.refuse_below_z_m:
+            return False
         return self.within_limits
 
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
@@ -96,6 +113,17 @@ class ScriptedArm:
             raise self.failure
         return T_base_tcp.copy()
 
+    def move_joints(
+        self,
+        q_rad: object,
+        speed_rps: float,
+        accel_rps2: float,
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        self.calls.append(("movej", (q_rad, speed_rps, accel_rps2)))
+        return self.tcp_pose()
+
     def stop_linear(self, decel_mps2: float) -> None:
         self.calls.append(("stop", decel_mps2))
 
@@ -115,7 +143,9 @@ def _records(path: Path) -> list[dict[str, object]]:
     return [json.loads(line) for line in path.read_text().splitlines()]
 
 
-def _config(tmp_path: Path, mode: str = "eye-in-hand", gripper: str = "") -> CellConfig:
+def _config(
+    tmp_path: Path, mode: str = "eye-in-hand", gripper: str = "", extra: str = ""
+) -> CellConfig:
     text = f"""
 robot:
   host: 127.0.0.1
@@ -138,6 +168,7 @@ workspace:
   max_tilt_deg: 30
 audit:
   file: picks.jsonl
+{extra}
 """
     if mode == "eye-to-hand":
         # A camera 1 m above the base plane looking straight down.
@@ -160,23 +191,20 @@ def _detection() -> Detection:
     return Detection(T, position_only=False, source="test")
 
 
+def _cell(config: CellConfig, arm: ScriptedArm) -> Cell:
+    cell = Cell(config, connect=lambda _config: arm)
+    cell.connect()
+    return cell
+
+
 def _run(
     tmp_path: Path,
     arm: ScriptedArm,
     config: CellConfig,
     detection: Detection,
     dry_run: bool = False,
-) -> tuple[object, list[dict[str, object]]]:
-    audit = AuditLog(config.audit.file)
-    result = run_pick(
-        config,
-        _calibration(config),
-        detection,
-        arm,
-        audit,
-        dry_run=dry_run,
-        progress=Progress.quiet(),
-    )
+) -> tuple[PickResult, list[dict[str, object]]]:
+    result = _cell(config, arm).pick(detection, dry_run=dry_run)
     return result, _records(config.audit.file)
 
 
@@ -217,7 +245,9 @@ def test_plan_is_on_disk_before_the_first_move_then_outcome(tmp_path: Path) -> N
     assert plan["pick_id"] == outcome["pick_id"]
     assert len(plan["checks"]) == 4 + 3 * 4  # type: ignore[arg-type]
     assert plan["calibration"]["sha256"] == _calibration(config).sha256  # type: ignore[index]
-    assert outcome["status"] == "done"
+    assert plan["flange_pose_source"] == "live"
+    assert ("steady", 2.0) in arm.calls  # a live flange pose only while the arm is at rest
+    assert outcome["status"] == "picked"
     errors = outcome["errors"]
     assert isinstance(errors, dict)
     assert set(errors) == {"approach", "grasp", "retreat"}
@@ -275,8 +305,8 @@ def test_preflight_refusal_moves_nothing_and_records_the_checks(tmp_path: Path) 
     assert failed == {("safety_limits", t) for t in ("approach", "grasp", "retreat")}
     (outcome,) = _records(config.audit.file)
     assert outcome["status"] == "refused"
-    assert set(outcome["targets"]) == {"approach", "grasp", "retreat"}  # type: ignore[arg-type]
-    audited = {(c["name"], c["target"]) for c in outcome["checks"] if not c["passed"]}  # type: ignore[attr-defined]
+    checks = outcome["error"]["checks"]  # type: ignore[index]
+    audited = {(c["name"], c["target"]) for c in checks if not c["passed"]}
     assert audited == failed
 
 
@@ -317,9 +347,154 @@ def test_gripper_output_switches_between_grasp_and_retreat(tmp_path: Path) -> No
     config = _config(tmp_path, gripper=gripper)
     arm = ScriptedArm(config.audit.file)
     _run(tmp_path, arm, config, _detection())
-    kinds = [c[0] for c in arm.calls]
-    assert kinds == ["move", "move", "output", "move"]
-    assert arm.calls[2][1] == (OutputBank.TOOL, 1, True)
+    sequence = [c for c in arm.calls if c[0] in ("move", "output")]
+    assert [kind for kind, _ in sequence] == ["move", "move", "output", "move"]
+    assert sequence[2][1] == (OutputBank.TOOL, 1, True)
+
+
+PLACE = """
+place:
+  poses:
+    - [-0.30, 0.30, 0.20, 3.14159265, 0, 0]
+    - [-0.40, 0.30, 0.20, 3.14159265, 0, 0]
+  approach_mm: 60
+  retreat_mm: 70
+poses:
+  home: {joints_rad: [0, -1.57, 1.57, -1.57, -1.57, 0]}
+  clear: {tcp_pose: [-0.30, 0.0, 0.40, 3.14159265, 0, 0]}
+capture:
+  pose: home
+"""
+
+
+def test_capture_latches_the_flange_pose_and_the_pick_uses_it_after_the_arm_moved(
+    tmp_path: Path,
+) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    cell = _cell(config, arm)
+    capture = cell.capture()
+    latched = arm.T_base_flange.copy()
+    arm.T_base_flange = arm.T_base_flange @ make_transform(np.eye(3), [0.05, 0.02, -0.03])
+    result = cell.pick(_detection(), capture)
+    T_flange_cam = _calibration(config).T_cal
+    expected = latched @ T_flange_cam @ _detection().T_cam_obj
+    np.testing.assert_allclose(result.plan.grasp, expected, atol=1e-12)
+    assert result.capture.capture_id == capture.capture_id
+    records = _records(config.audit.file)
+    assert [r["event"] for r in records] == ["capture", "plan", "outcome"]
+    assert {r["capture_id"] for r in records} == {capture.capture_id}
+    assert {r["cycle"] for r in records} == {1}
+    assert records[1]["flange_pose_source"] == "latched"
+
+
+def test_first_feasible_candidate_is_picked_and_refused_ones_say_why(tmp_path: Path) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.refuse_below_z_m = 0.05  # the controller refuses targets under 5 cm
+    # The first candidate lies 200 mm deeper in the camera: its grasp is below 5 cm.
+    deep = detection_from_point_mm([0.0, 0.0, 580.0], "deep")
+    shallow = detection_from_point_mm([0.0, 0.0, 300.0], "shallow")
+    result = _cell(config, arm).pick([deep, shallow])
+    assert result.candidate == 1
+    (refusal,) = result.refused
+    assert refusal.candidate == 0
+    assert any("safety_limits" in reason for reason in refusal.reasons)
+    outcome = _records(config.audit.file)[-1]
+    assert outcome["candidate"] == 1
+    assert outcome["refused"][0]["candidate"] == 0  # type: ignore[index]
+
+
+def test_no_feasible_candidate_moves_nothing_and_lists_each(tmp_path: Path) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.within_limits = False
+    candidates = [detection_from_point_mm([0.0, 0.0, z], f"c{z:g}") for z in (300.0, 350.0)]
+    with pytest.raises(NoFeasibleCandidate) as caught:
+        _cell(config, arm).pick(candidates)
+    assert [r.candidate for r in caught.value.refusals] == [0, 1]
+    assert "candidate 1 (c350)" in str(caught.value)
+    assert arm.moves() == []
+    assert _records(config.audit.file)[-1]["status"] == "refused"
+
+
+def test_pick_with_place_puts_the_part_down_in_turn(tmp_path: Path) -> None:
+    gripper = "  gripper: {bank: tool, index: 1, close_value: true, settle_s: 0}"
+    config = _config(tmp_path, gripper=gripper, extra=PLACE)
+    arm = ScriptedArm(config.audit.file)
+    cell = _cell(config, arm)
+    first = cell.pick(_detection())
+    second = cell.pick(_detection())
+    assert (first.status, first.place_index, second.place_index) == ("placed", 0, 1)
+    moves = arm.moves()[:6]
+    place = config.place.T_base_tcp[0]  # type: ignore[union-attr]
+    np.testing.assert_allclose(moves[4][0], place, atol=1e-12)
+    # place approach 60 mm and retreat 70 mm back along the place pose's tool z (down): above
+    np.testing.assert_allclose(moves[3][0][:3, 3], place[:3, 3] + [0, 0, 0.060], atol=1e-6)
+    np.testing.assert_allclose(moves[5][0][:3, 3], place[:3, 3] + [0, 0, 0.070], atol=1e-6)
+    assert (moves[4][1], moves[3][1]) == (0.05, 0.25)  # slow onto the place
+    outputs = [c[1] for c in arm.calls if c[0] == "output"]
+    assert outputs[:2] == [(OutputBank.TOOL, 1, True), (OutputBank.TOOL, 1, False)]
+    np.testing.assert_allclose(second.T_base_tcp_place, config.place.T_base_tcp[1])  # type: ignore[union-attr]
+
+
+def test_fixed_targets_are_asked_once_per_session_pick_targets_every_time(tmp_path: Path) -> None:
+    config = _config(tmp_path, extra=PLACE)
+    arm = ScriptedArm(config.audit.file)
+    cell = _cell(config, arm)
+    asked = []
+    for _ in range(3):  # place poses 0, 1, 0 again
+        before = sum(1 for c in arm.calls if c[0] == "ask")
+        cell.pick(_detection())
+        asked.append(sum(1 for c in arm.calls if c[0] == "ask") - before)
+    assert asked == [6, 6, 3]  # 3 pick + 3 place targets; place pose 0 is not asked again
+
+
+def test_named_joint_pose_is_checked_moved_with_movej_and_audited(tmp_path: Path) -> None:
+    config = _config(tmp_path, extra=PLACE)
+    arm = ScriptedArm(config.audit.file)
+    _cell(config, arm).move_to("home")
+    (movej,) = [c[1] for c in arm.calls if c[0] == "movej"]
+    assert movej[0] == (0.0, -1.57, 1.57, -1.57, -1.57, 0.0)
+    plan, outcome = _records(config.audit.file)
+    assert plan["operation"] == "move home"
+    assert plan["checks"][-1]["name"] == "joint_safety_limits"  # type: ignore[index]
+    assert outcome["status"] == "done"
+
+
+def test_a_fault_halts_the_cell_until_resume(tmp_path: Path) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.fail_on_move = 2
+    cell = _cell(config, arm)
+    with pytest.raises(RobotFault):
+        cell.pick(_detection())
+    assert cell.halted is not None
+    assert "protective stop" in cell.halted
+    moves_before = len(arm.moves())
+    with pytest.raises(CellHalted, match="resume"):
+        cell.pick(_detection())
+    with pytest.raises(CellHalted):
+        cell.move_to("anything")
+    assert len(arm.moves()) == moves_before  # nothing moved while halted
+    assert _records(config.audit.file)[-1]["status"] == "halted"  # the refused pick, audited
+    arm.fail_on_move = None
+    cell.resume()
+    assert cell.halted is None
+    assert cell.pick(_detection()).status == "picked"
+
+
+def test_resume_stays_halted_while_the_cell_is_not_ready(tmp_path: Path) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.fail_on_move = 1
+    cell = _cell(config, arm)
+    with pytest.raises(RobotFault):
+        cell.pick(_detection())
+    arm.status_value = RobotStatus(**{**vars(READY), "protective_stopped": True, "safety_mode": 3})
+    with pytest.raises(SafetyRefusal, match="still not ready"):
+        cell.resume()
+    assert cell.halted is not None
 
 
 def test_move_timeout_follows_the_trapezoid_profile() -> None:
@@ -367,3 +542,21 @@ def test_quiet_progress_prints_nothing(capsys: pytest.CaptureFixture[str]) -> No
     with Progress.quiet().step("retreat") as report:
         report(0.5)
     assert capsys.readouterr() == ("", "")
+
+
+def test_a_position_only_grasp_keeps_the_tcp_yaw_not_the_flange_yaw(tmp_path: Path) -> None:
+    # A TCP offset turned 0.4 rad about the tool z axis: the grasp keeps the yaw the TCP had at
+    # capture. Planning from the flange pose instead would turn the tool 23 degrees.
+    config = _config(tmp_path)
+    config = dataclasses.replace(
+        config,
+        robot=dataclasses.replace(
+            config.robot, T_flange_tcp=ur_pose_to_matrix([0.0, 0.0, 0.12, 0.0, 0.0, 0.4])
+        ),
+    )
+    arm = ScriptedArm(config.audit.file)
+    arm.T_flange_tcp = config.robot.T_flange_tcp
+    result = _cell(config, arm).pick(detection_from_point_mm([20.0, 10.0, 350.0], "test"))
+    R_base_tcp = (T_BASE_FLANGE @ arm.T_flange_tcp)[:3, :3]
+    np.testing.assert_allclose(result.plan.grasp[:3, :3], R_base_tcp, atol=1e-9)
+    np.testing.assert_allclose(arm.moves()[1][0][:3, :3], R_base_tcp, atol=1e-9)

@@ -13,7 +13,7 @@ from handeye_pick.config import load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix
-from handeye_pick.pick import STEPS, chain_plan, target_of
+from handeye_pick.pick import STEPS, chain_plan
 from handeye_pick.plot import FIGURE_SIZE_PX, Scene, cloud_to_base_m, render_scene
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -35,7 +35,7 @@ def demo_scene(calibration: HandEyeCalibration, cloud_base_m: np.ndarray | None 
         T_base_tcp=plan.T_base_flange @ plan.T_flange_tcp,
         T_base_cam=plan.T_base_cam,
         T_base_obj=plan.T_base_obj,
-        tcp_path=tuple((name, target_of(plan.targets, name)) for name in STEPS),
+        tcp_path=tuple((name, plan.target(name)) for name in STEPS),
         workspace_min_m=(-0.8, -0.8, 0.02),
         workspace_max_m=(0.8, 0.8, 0.7),
         cloud_base_m=cloud_base_m,

@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from handeye_pick.config import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import RobotFault, SafetyRefusal
 from handeye_pick.geometry import Transform, make_transform, rotation_from_euler
+from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.robot.port import (
     OutputBank,
     ProgressCallback,
@@ -22,9 +23,8 @@ from handeye_pick.robot.port import (
     SafetyMode,
 )
 from handeye_pick.safety import (
-    MAX_GRASP_SPEED_MPS,
-    MAX_SPEED_MPS,
     CheckResult,
+    PoseTarget,
     PreflightRefusal,
     cell_readiness_problems,
     check_motion_command,
@@ -120,9 +120,13 @@ def _refusal(
     arm = arm or FakeArm()
     robot: RobotArm = arm  # mypy checks that the fake matches the Protocol
     with pytest.raises(PreflightRefusal) as info:
-        preflight(targets, motion, workspace, robot)
+        preflight(_pose_targets(targets), motion, workspace, robot)
     assert arm.motion == []  # a refusal moves nothing
     return info.value, arm
+
+
+def _pose_targets(targets: dict[str, Transform]) -> list[PoseTarget]:
+    return [PoseTarget(name, T) for name, T in targets.items()]
 
 
 def _failed(refusal: PreflightRefusal) -> list[tuple[str, str]]:
@@ -131,7 +135,7 @@ def _failed(refusal: PreflightRefusal) -> list[tuple[str, str]]:
 
 def test_a_good_plan_passes_every_check_and_asks_the_controller_per_target() -> None:
     arm = FakeArm()
-    results = preflight(TARGETS, MOTION, WORKSPACE, arm)
+    results = preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, arm)
     assert all(r.passed for r in results)
     names = {(r.target, r.name) for r in results}
     for target in TARGETS:
@@ -178,7 +182,7 @@ def test_grasp_outside_the_workspace_box_is_refused(
 
 def test_box_edges_are_inside() -> None:
     targets = {"a": _down(0.8, -0.8, 0.0), "b": _down(-0.8, 0.8, 0.8)}
-    preflight(targets, MOTION, WORKSPACE, FakeArm())
+    preflight(_pose_targets(targets), MOTION, WORKSPACE, FakeArm())
 
 
 def test_tilt_above_the_limit_is_refused() -> None:
@@ -186,7 +190,12 @@ def test_tilt_above_the_limit_is_refused() -> None:
     refusal, _ = _refusal(targets)
     assert _failed(refusal) == [("approach", "tilt")]
     assert "61.0 deg from straight down, limit 60 deg" in str(refusal)
-    preflight({"approach": _down(0.4, 0.1, 0.3, tilt_about_x_deg=59)}, MOTION, WORKSPACE, FakeArm())
+    preflight(
+        _pose_targets({"approach": _down(0.4, 0.1, 0.3, tilt_about_x_deg=59)}),
+        MOTION,
+        WORKSPACE,
+        FakeArm(),
+    )
 
 
 def test_tool_pointing_up_is_refused_unless_tilt_check_is_off() -> None:
@@ -194,7 +203,7 @@ def test_tool_pointing_up_is_refused_unless_tilt_check_is_off() -> None:
     refusal, _ = _refusal({"grasp": up})
     assert _failed(refusal) == [("grasp", "tilt")]
     off = WorkspaceConfig(WORKSPACE.min_mm, WORKSPACE.max_mm, max_tilt_deg=180)
-    preflight({"grasp": up}, MOTION, off, FakeArm())
+    preflight(_pose_targets({"grasp": up}), MOTION, off, FakeArm())
 
 
 @pytest.mark.parametrize(
@@ -254,7 +263,7 @@ def test_every_failure_is_listed_at_once() -> None:
 def test_a_controller_that_cannot_answer_raises_its_robot_error() -> None:
     arm = FakeArm(fault=True)
     with pytest.raises(RobotFault):
-        preflight(TARGETS, MOTION, WORKSPACE, arm)
+        preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, arm)
     assert arm.motion == []
 
 

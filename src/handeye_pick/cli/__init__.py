@@ -9,10 +9,18 @@ from __future__ import annotations
 
 import argparse
 import logging
+import signal
 import sys
 from collections.abc import Sequence
+from types import FrameType
 
-from handeye_pick.errors import HandEyePickError, InputError, RobotError, SafetyRefusal
+from handeye_pick.errors import (
+    HandEyePickError,
+    InputError,
+    RobotError,
+    SafetyRefusal,
+    Terminated,
+)
 from handeye_pick.progress import add_output_args, configure_logging
 
 EXIT_OK = 0
@@ -21,6 +29,7 @@ EXIT_BAD_INPUT = 2
 EXIT_REFUSED = 3
 EXIT_ROBOT_FAULT = 4
 EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 log = logging.getLogger("handeye_pick")
 
@@ -33,7 +42,7 @@ class _Parser(argparse.ArgumentParser):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from handeye_pick.cli import cloud, operator, pick, transform
+    from handeye_pick.cli import calibrate, cloud, operator, pick, run, transform
 
     parser = _Parser(
         prog="handeye-pick",
@@ -42,7 +51,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_output_args(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for module in (transform, pick, cloud, operator):
+    for module in (transform, pick, cloud, operator, run, calibrate):
         module.register(sub)
     for command_parser in sub.choices.values():  # --quiet/--log-file also after the command
         add_output_args(command_parser, with_defaults=False)
@@ -58,8 +67,17 @@ def exit_status(exc: HandEyePickError) -> int:
     return EXIT_BAD_INPUT
 
 
+def _terminate(signum: int, frame: FrameType | None) -> None:
+    raise Terminated
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Run one command; return its exit status (never raises for a known failure)."""
+    """Run one command; return its exit status (never raises for a known failure).
+
+    SIGTERM (a supervisor stopping the cell) is handled like Ctrl-C: the command stops the arm
+    and writes its outcome, then exits 143.
+    """
+    signal.signal(signal.SIGTERM, _terminate)
     try:
         args = build_parser().parse_args(argv)
         configure_logging(args.log_file, quiet=args.quiet)
@@ -68,6 +86,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except HandEyePickError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return exit_status(exc)
+    except Terminated:
+        print("terminated (SIGTERM): the arm was stopped", file=sys.stderr)
+        return EXIT_TERMINATED
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED

@@ -1,5 +1,5 @@
 """Command-line pieces shared by the commands that work on a configured cell: ``pick``, ``plan``,
-``status`` and ``touch-test``.
+``status``, ``touch-test`` and ``run``. They are clients of ``handeye_pick.cell.Cell``.
 
 Robot poses in JSON output are UR pose vectors (m, rad); the detection is in the camera frame.
 """
@@ -10,15 +10,17 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from handeye_pick.calibration import HandEyeCalibration, load_hand_eye
-from handeye_pick.cli.common import camera_point_mm_from_args
-from handeye_pick.config import CellConfig
+from handeye_pick.calibration import read_robot_pose_file
+from handeye_pick.cli.common import accept_negative_exponents, camera_point_mm_from_args
 from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import ur_pose_list
-from handeye_pick.pick import STEPS, PickPlan, target_of
+from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
 from handeye_pick.progress import Progress
+
+if TYPE_CHECKING:
+    from handeye_pick.cell import PickPlan
 
 
 def add_config_arg(parser: argparse.ArgumentParser) -> None:
@@ -54,10 +56,48 @@ def detection_from_args(args: argparse.Namespace) -> Detection:
     return detection_from_point_mm(point_mm, source)
 
 
-def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
-    """The hand-eye calibration the cell configuration names (file, mode, units, inversion)."""
-    hand_eye = config.hand_eye
-    return load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
+def add_capture_pose_args(parser: argparse.ArgumentParser) -> None:
+    """Add ``--capture-pose FILE | --capture-pose-ur X Y Z RX RY RZ``: the flange pose latched
+    when the image was taken (eye-in-hand), instead of the live one."""
+    accept_negative_exponents(parser)
+    group = parser.add_argument_group(
+        "flange pose at image acquisition (eye-in-hand): T_base_flange; without it the pick "
+        "reads the live flange pose, which is right only if the arm has not moved since"
+    )
+    choice = group.add_mutually_exclusive_group()
+    choice.add_argument(
+        "--capture-pose",
+        type=Path,
+        metavar="FILE",
+        help="4x4 flange pose file like Zivid's RobotTransform.yaml (mm)",
+    )
+    choice.add_argument(
+        "--capture-pose-ur",
+        nargs=6,
+        type=float,
+        metavar=("X", "Y", "Z", "RX", "RY", "RZ"),
+        help="flange pose as a UR pose vector, metres and radians",
+    )
+
+
+def capture_pose_from_args(
+    args: argparse.Namespace, detection: Detection
+) -> tuple[Transform, str] | None:
+    """The flange pose at acquisition and where it came from: a flag, or the detection file's
+    ``capture`` section; None when neither gives one (the live pose is then used)."""
+    flag: tuple[Transform, str] | None = None
+    if args.capture_pose is not None:
+        flag = read_robot_pose_file(args.capture_pose, units="mm"), str(args.capture_pose)
+    elif args.capture_pose_ur is not None:
+        flag = ur_pose_to_matrix(args.capture_pose_ur), "--capture-pose-ur"
+    if flag is not None and detection.T_base_flange_at_capture is not None:
+        raise InputError(
+            f"{detection.source} carries its capture pose already: drop --capture-pose/"
+            "--capture-pose-ur, or the file's capture section"
+        )
+    if detection.T_base_flange_at_capture is not None:
+        return detection.T_base_flange_at_capture, f"{detection.source} capture"
+    return flag
 
 
 def progress_from_args(args: argparse.Namespace) -> Progress:
@@ -72,7 +112,7 @@ def plan_fields(plan: PickPlan) -> dict[str, object]:
         "tcp_offset": ur_pose_list(plan.T_flange_tcp),
         "object_pose": ur_pose_list(plan.T_base_obj),
         "T_base_cam": plan.T_base_cam.tolist(),
-        "targets": {name: ur_pose_list(target_of(plan.targets, name)) for name in STEPS},
+        "targets": plan.targets_ur(),
     }
 
 

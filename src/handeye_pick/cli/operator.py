@@ -15,16 +15,13 @@ from __future__ import annotations
 
 import argparse
 import sys
-from dataclasses import replace
-from functools import partial
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from handeye_pick.audit import AuditLog
 from handeye_pick.cli import EXIT_REFUSED
 from handeye_pick.cli.cell import (
     add_config_arg,
     add_detection_arg,
-    calibration_from_config,
     detection_from_args,
     plan_fields,
     print_json,
@@ -36,24 +33,11 @@ from handeye_pick.cli.common import (
     camera_point_mm_from_args,
     robot_pose_from_args,
 )
-from handeye_pick.cloudio import read_cloud
-from handeye_pick.config import CellConfig, load_config
-from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
-from handeye_pick.geometry import compose, ur_pose_list
-from handeye_pick.pick import (
-    STEPS,
-    PickPlan,
-    chain_plan,
-    connect_audited,
-    run_pick,
-    target_of,
-)
-from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
-from handeye_pick.progress import Progress
-from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode, mode_name
-from handeye_pick.robot.ur_rtde_arm import URRtdeArm
-from handeye_pick.safety import cell_readiness_problems, tcp_offset_difference, workspace_problem
+from handeye_pick.geometry import ur_pose_list
+
+if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
+    from handeye_pick.cell import Cell, CellStatus, PickPlan
 
 DEFAULT_STANDOFF_MM = 10.0
 
@@ -122,31 +106,28 @@ def _add_json_arg(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def _connect(config: CellConfig, progress: Progress) -> URRtdeArm:
-    """Receive and control interfaces only: none of these commands switches an output."""
-    with progress.step(f"connecting to {config.robot.host}"):
-        return URRtdeArm(config.robot.host, stop_decel_mps2=config.motion.stop_decel_mps2)
-
-
 # --- plan --plot --------------------------------------------------------------------------------
 
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan like a pick and write the PNG; exit 0. Nothing is sent to the robot but reads."""
-    config = load_config(args.config)
+    from handeye_pick.cell import Cell
+    from handeye_pick.cloudio import read_cloud
+    from handeye_pick.geometry import compose
+    from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
+
+    cell = Cell(args.config, progress=progress_from_args(args))
+    config, calibration = cell.config, cell.calibration
     detection = detection_from_args(args)
-    calibration = calibration_from_config(config)
     T_base_flange = robot_pose_from_args(args)
     if T_base_flange is None:
-        with _connect(config, progress_from_args(args)) as arm:
-            T_flange_tcp = arm.tcp_offset()
-            T_base_flange = arm.flange_pose()
+        with cell:
+            plan = cell.plan(detection)
         flange_source = f"live robot {config.robot.host}"
     else:
         # Offline: the TCP the config expects on the pendant.
-        T_flange_tcp = config.robot.T_flange_tcp
+        plan = cell.plan(detection, T_base_flange)
         flange_source = "--robot-pose" if args.robot_pose is not None else "--robot-pose-ur"
-    plan = chain_plan(config, calibration, detection, T_base_flange, T_flange_tcp)
     cloud_base_m = None
     if args.cloud is not None:
         cloud_base_m = cloud_to_base_m(read_cloud(args.cloud).xyz, plan.T_base_cam)
@@ -158,18 +139,13 @@ def run_plan(args: argparse.Namespace) -> int:
         T_base_tcp=compose(plan.T_base_flange, plan.T_flange_tcp),
         T_base_cam=plan.T_base_cam,
         T_base_obj=plan.T_base_obj,
-        tcp_path=tuple((name, target_of(plan.targets, name)) for name in STEPS),
+        tcp_path=tuple(plan.targets().items()),
         workspace_min_m=_mm_to_m(config.workspace.min_mm),
         workspace_max_m=_mm_to_m(config.workspace.max_mm),
         cloud_base_m=cloud_base_m,
     )
     render_scene(scene, args.plot)
-    # Only the pure checks: the controller's own (safety limits, IK) need a pick or a dry run.
-    outside = {
-        name: problem
-        for name in STEPS
-        if (problem := workspace_problem(target_of(plan.targets, name), config.workspace))
-    }
+    outside = cell.outside_workspace(plan)
     if args.json:
         print_json(
             {
@@ -207,54 +183,55 @@ def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float
 
 def run_status(args: argparse.Namespace) -> int:
     """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons."""
-    config = load_config(args.config)
-    calibration = calibration_from_config(config)
-    robot = config.robot
-    report: dict[str, object] = {"config": str(config.path), "host": robot.host}
+    from handeye_pick.cell import Cell
+
+    cell = Cell(args.config, progress=progress_from_args(args))
+    config = cell.config
+    report: dict[str, object] = {"config": str(config.path), "host": config.robot.host}
     try:
-        arm = _connect(config, progress_from_args(args))
+        with cell:
+            state = cell.status()
     except SafetyRefusal as exc:
         # ur_rtde could not start its control program: that is the reason the cell is not ready.
         report.update(ready=False, problems=[str(exc)])
         _print_status(report, [str(exc)], args.json)
         return EXIT_REFUSED
-    with arm:
-        status = arm.status()
-        T_flange_tcp = arm.tcp_offset()
-        T_base_flange = arm.flange_pose()
-    problems = cell_readiness_problems(
-        status,
-        T_flange_tcp,
-        robot.T_flange_tcp,
-        tolerance_mm=robot.tcp_offset_tolerance_mm,
-        tolerance_deg=robot.tcp_offset_tolerance_deg,
-    )
-    tcp_diff_mm, tcp_diff_deg = tcp_offset_difference(T_flange_tcp, robot.T_flange_tcp)
-    T_base_tcp = compose(T_base_flange, T_flange_tcp)
-    outside = workspace_problem(T_base_tcp, config.workspace)
-    report.update(
-        ready=not problems,
-        problems=problems,
-        controller_version=status.controller_version,
-        robot_mode=mode_name(RobotMode, status.robot_mode),
-        safety_mode=mode_name(SafetyMode, status.safety_mode),
-        runtime_state=mode_name(RuntimeState, status.runtime_state),
-        remote_control=status.remote_control,
-        tcp_offset=ur_pose_list(T_flange_tcp),
-        tcp_offset_configured=ur_pose_list(robot.T_flange_tcp),
-        tcp_offset_matches=tcp_diff_mm <= robot.tcp_offset_tolerance_mm
-        and tcp_diff_deg <= robot.tcp_offset_tolerance_deg,
-        tcp_offset_difference={"mm": tcp_diff_mm, "deg": tcp_diff_deg},
-        flange_pose=ur_pose_list(T_base_flange),
-        tcp_pose=ur_pose_list(T_base_tcp),
-        hand_eye_mode=calibration.mode.value,
-        calibration_file=str(calibration.path),
-        T_base_cam=calibration.T_base_cam(T_base_flange).tolist(),
-        tcp_in_workspace=outside is None,
-        tcp_outside_workspace=outside,
-    )
-    _print_status(report, problems, args.json)
-    return 0 if not problems else EXIT_REFUSED
+    report.update(_status_fields(cell, state))
+    _print_status(report, state.problems, args.json)
+    return 0 if state.ready else EXIT_REFUSED
+
+
+def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
+    from handeye_pick.robot.port import RobotMode, RuntimeState, SafetyMode, mode_name
+
+    robot_config = cell.config.robot
+    robot, tcp, diff = state.robot, state.T_flange_tcp, state.tcp_offset_difference
+    if robot is None or tcp is None or diff is None or state.T_base_flange is None:
+        return {"ready": False, "problems": state.problems}
+    fields: dict[str, object] = {
+        "ready": state.ready,
+        "problems": state.problems,
+        "controller_version": robot.controller_version,
+        "robot_mode": mode_name(RobotMode, robot.robot_mode),
+        "safety_mode": mode_name(SafetyMode, robot.safety_mode),
+        "runtime_state": mode_name(RuntimeState, robot.runtime_state),
+        "remote_control": robot.remote_control,
+        "tcp_offset": ur_pose_list(tcp),
+        "tcp_offset_configured": ur_pose_list(robot_config.T_flange_tcp),
+        "tcp_offset_matches": diff[0] <= robot_config.tcp_offset_tolerance_mm
+        and diff[1] <= robot_config.tcp_offset_tolerance_deg,
+        "tcp_offset_difference": {"mm": diff[0], "deg": diff[1]},
+        "flange_pose": ur_pose_list(state.T_base_flange),
+        "hand_eye_mode": cell.calibration.mode.value,
+        "calibration_file": str(cell.calibration.path),
+        "tcp_in_workspace": state.tcp_outside_workspace is None,
+        "tcp_outside_workspace": state.tcp_outside_workspace,
+    }
+    if state.T_base_tcp is not None:
+        fields["tcp_pose"] = ur_pose_list(state.T_base_tcp)
+    if state.T_base_cam is not None:
+        fields["T_base_cam"] = state.T_base_cam.tolist()
+    return fields
 
 
 def _print_status(report: dict[str, object], problems: list[str], as_json: bool) -> None:
@@ -307,7 +284,11 @@ def _show(value: object) -> str:
 
 def run_touch_test(args: argparse.Namespace) -> int:
     """Approach, descend slowly to the stand-off, go back up; exit 0 when done."""
-    config = load_config(args.config)
+    from handeye_pick.cell import Cell
+    from handeye_pick.detection import detection_from_point_mm
+
+    cell = Cell(args.config, progress=progress_from_args(args))
+    config = cell.config
     point_mm = camera_point_mm_from_args(args)
     if point_mm is None:  # argparse already requires --xyz or --cloud
         raise InputError("touch-test: give --xyz X Y Z or --cloud FILE --pixel COL ROW")
@@ -319,19 +300,19 @@ def run_touch_test(args: argparse.Namespace) -> int:
             f"grasp.approach_mm and grasp.retreat_mm ({approach_mm:g}, "
             f"{config.grasp.retreat_mm:g}), got {standoff_mm:g}"
         )
+    if args.confirm and not sys.stdin.isatty():
+        raise InputError(
+            "touch-test --confirm waits for Enter at the approach point, but standard input is "
+            "not a terminal: run it from a terminal, or drop --confirm"
+        )
     source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
     detection = detection_from_point_mm(point_mm, f"touch-test {source}")
-    calibration = calibration_from_config(config)
-    # A touch test switches nothing: no gripper, whatever the config says.
-    touch_config = replace(config, robot=replace(config.robot, gripper=None))
-    audit = AuditLog(config.audit.file)
-    progress = progress_from_args(args)
-    report: dict[str, object] = {"pick_id": audit.pick_id, "standoff_mm": standoff_mm}
+    report: dict[str, object] = {"standoff_mm": standoff_mm}
 
     def show_plan(plan: PickPlan) -> None:
         report.update(plan_fields(plan))
         point = plan.T_base_obj[:3, 3] * 1000.0
-        standoff = plan.targets.grasp[:3, 3] * 1000.0
+        standoff = plan.grasp[:3, 3] * 1000.0
         report["point_base_mm"] = point.tolist()
         if not args.json:
             print(
@@ -356,35 +337,26 @@ def run_touch_test(args: argparse.Namespace) -> int:
             raise KeyboardInterrupt  # stdin closed: nobody confirmed, so do not descend
 
     try:
-        connect = partial(_connect, config, progress)
-        with connect_audited(audit, connect, dry_run=False) as arm:
-            result = run_pick(
-                touch_config,
-                calibration,
-                detection,
-                arm,
-                audit,
-                dry_run=False,
-                progress=progress,
-                on_plan=show_plan,
-                before_move=confirm,
-                standoff_m=standoff_mm / 1000.0,
+        with cell:
+            result = cell.touch_test(
+                detection, standoff_mm / 1000.0, before_move=confirm, on_plan=show_plan
             )
     except (HandEyePickError, KeyboardInterrupt) as exc:
         if args.json:  # the operator's record even when it ends early; the dispatcher reports
             report.update(status="failed", error=str(exc) or type(exc).__name__)
             print_json(report)
         raise
-    errors = result.errors()
+    report["pick_id"] = result.pick_id
     report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
+    standoff_error_mm = result.errors["grasp"].position_mm
     if args.json:
         report["status"] = "done"
-        report["standoff_error_mm"] = errors["grasp"].position_mm
+        report["standoff_error_mm"] = standoff_error_mm
         print_json(report)
     else:
         print(
-            f"touch-test done: stand-off reached within {errors['grasp'].position_mm:.2f} mm, "
-            f"back at the retreat point; audit records {audit.pick_id} in {audit.path}",
+            f"touch-test done: stand-off reached within {standoff_error_mm:.2f} mm, "
+            f"back at the retreat point; audit records {result.pick_id} in {config.audit.file}",
             flush=True,
         )
     return 0
@@ -399,5 +371,5 @@ def _plan_lines(plan: PickPlan) -> list[str]:
         ("camera", plan.T_base_cam),
         ("object", plan.T_base_obj),
     ]
-    rows += [(name, target_of(plan.targets, name)) for name in STEPS]
+    rows += list(plan.targets().items())
     return [f"  {label:<12} {_show(ur_pose_list(T))}" for label, T in rows]

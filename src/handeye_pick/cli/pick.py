@@ -1,59 +1,53 @@
-"""``handeye-pick pick``: one checked, audited pick on a live UR arm.
+"""``handeye-pick pick``: one checked, audited pick on a live UR arm (a one-cycle ``Cell``).
 
 Inputs are read and validated before the robot is contacted (bad input: exit 2, nothing sent).
 Then: connect, check the cell, plan, pre-flight (exit 3, nothing moved), audit, move (exit 4 on a
-robot fault, 130 on Ctrl-C after stopL). ``--json`` prints one JSON object on stdout whatever
-the ending: the plan (UR pose vectors, m and rad) as far as it got, the status and the error.
+robot fault, 130 on Ctrl-C and 143 on SIGTERM after stopL). ``--json`` prints one JSON object on
+stdout whatever the ending: the plan (UR pose vectors, m and rad) as far as it got, the status
+and the error.
 """
 
 from __future__ import annotations
 
 import argparse
 from dataclasses import asdict
+from typing import TYPE_CHECKING
 
-from handeye_pick.audit import AuditLog
-from handeye_pick.calibration import HandEyeCalibration
 from handeye_pick.cli.cell import (
+    add_capture_pose_args,
     add_config_arg,
     add_detection_arg,
-    calibration_from_config,
+    capture_pose_from_args,
     detection_from_args,
     plan_fields,
     print_json,
     progress_from_args,
 )
 from handeye_pick.cli.common import add_camera_point_args
-from handeye_pick.config import CellConfig, load_config
-from handeye_pick.detection import Detection
 from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
-from handeye_pick.pick import (
-    STEPS,
-    PickPlan,
-    PickResult,
-    connect_audited,
-    run_pick,
-    target_of,
-)
-from handeye_pick.progress import Progress
-from handeye_pick.robot.ur_rtde_arm import URRtdeArm
-from handeye_pick.safety import PreflightRefusal
+
+if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
+    from handeye_pick.cell import PickResult, StepError
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add ``pick`` to the top-level parser."""
     parser = sub.add_parser(
         "pick",
-        help="pick one detected object: live flange pose, hand-eye chain, checked moveL",
-        description="Read the live flange pose over RTDE, chain it with the hand-eye "
-        "calibration and the camera-frame detection, check every target, append the plan to the "
-        "audit file, then moveL approach, grasp (gripper output if configured) and retreat. "
-        "Exit status: 0 done, 2 bad input or config, 3 refused by a check (nothing moved), "
-        "4 robot fault, 130 interrupted.",
+        help="pick one detected object: flange pose at capture, hand-eye chain, checked moveL",
+        description="Chain the camera-frame detection with the hand-eye calibration and the "
+        "flange pose at image acquisition (from --capture-pose/--capture-pose-ur or the "
+        "detection file's capture section; otherwise the live pose, read only while the arm is "
+        "steady), check every target, append the plan to the audit file, then moveL approach, "
+        "grasp (gripper output if configured), retreat, and place when the config has a place "
+        "section. Exit status: 0 done, 2 bad input or config, 3 refused by a check (nothing "
+        "moved), 4 robot fault, 130 interrupted, 143 terminated (SIGTERM).",
     )
     add_config_arg(parser)
     add_detection_arg(parser)
     add_camera_point_args(parser, required=False)
+    add_capture_pose_args(parser)
     parser.add_argument(
         "--dry-run",
         action="store_true",
@@ -70,6 +64,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Exit 0 when the pick (or dry run) is done; typed errors propagate to the dispatcher,
     after the JSON report is printed."""
+    from handeye_pick.cell import Cell
+    from handeye_pick.config import load_config
+
     report: dict[str, object] = {"status": "starting"}
     try:
         config = load_config(args.config)
@@ -77,67 +74,46 @@ def run(args: argparse.Namespace) -> int:
             config=str(config.path), host=config.robot.host, audit_file=str(config.audit.file)
         )
         detection = detection_from_args(args)
-        calibration = calibration_from_config(config)
-        audit = AuditLog(config.audit.file)
-        report["pick_id"] = audit.pick_id
-        progress = progress_from_args(args)
-        result = _connect_and_pick(config, calibration, detection, audit, args, progress, report)
+        given = capture_pose_from_args(args, detection)
+        cell = Cell(config, progress=progress_from_args(args))
+        capture = cell.given_capture(*given) if given is not None else None
+        with cell:
+            result = cell.pick(
+                detection,
+                capture,
+                dry_run=args.dry_run,
+                on_plan=lambda plan: report.update(plan_fields(plan)),
+            )
     except (HandEyePickError, KeyboardInterrupt) as exc:
         report.update(_failure_fields(exc))
         if args.json:
             print_json(report)
         raise
-    status = "dry-run" if args.dry_run else "done"
-    report["status"] = status
-    report["checks"] = [asdict(check) for check in result.checks]
-    report["errors"] = {name: asdict(error) for name, error in result.errors().items()}
+    report.update(
+        status=result.status,
+        pick_id=result.pick_id,
+        flange_pose_source=result.capture.source,
+        checks=[asdict(check) for check in result.checks],
+        reached={name: ur_pose_list(T) for name, T in result.reached.items()},
+        errors={name: asdict(error) for name, error in result.errors.items()},
+    )
+    if result.T_base_tcp_place is not None:
+        report["place"] = {
+            "index": result.place_index,
+            "pose": ur_pose_list(result.T_base_tcp_place),
+        }
     if args.json:
         print_json(report)
     else:
-        _print_summary(result, status, audit)
+        _print_summary(result, str(config.audit.file))
     return 0
 
 
-def _connect_and_pick(
-    config: CellConfig,
-    calibration: HandEyeCalibration,
-    detection: Detection,
-    audit: AuditLog,
-    args: argparse.Namespace,
-    progress: Progress,
-    report: dict[str, object],
-) -> PickResult:
-    def keep_plan(plan: PickPlan) -> None:
-        report.update(plan_fields(plan))
-
-    def connect() -> URRtdeArm:
-        with progress.step(f"connecting to {config.robot.host}"):
-            return URRtdeArm(
-                config.robot.host,
-                with_io=config.robot.gripper is not None,
-                stop_decel_mps2=config.motion.stop_decel_mps2,
-            )
-
-    arm = connect_audited(audit, connect, dry_run=args.dry_run)
-    with arm:
-        report["controller_version"] = arm.controller_version
-        result = run_pick(
-            config,
-            calibration,
-            detection,
-            arm,
-            audit,
-            dry_run=args.dry_run,
-            progress=progress,
-            on_plan=keep_plan,
-        )
-    report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
-    return result
-
-
 def _failure_fields(exc: BaseException) -> dict[str, object]:
+    from handeye_pick.cell import PreflightRefusal
+
     if isinstance(exc, KeyboardInterrupt):
-        return {"status": "interrupted", "error": "interrupted (Ctrl-C): stopL sent"}
+        return {"status": "interrupted", "error": f"interrupted ({type(exc).__name__}): stopL sent"}
     fields: dict[str, object] = {"error": str(exc), "error_type": type(exc).__name__}
     if isinstance(exc, SafetyRefusal):
         fields["status"] = "refused"
@@ -150,21 +126,27 @@ def _failure_fields(exc: BaseException) -> dict[str, object]:
     return fields
 
 
-def _print_summary(result: PickResult, status: str, audit: AuditLog) -> None:
+def _print_summary(result: PickResult, audit_file: str) -> None:
     """The plan and the result for a person, on stdout (UR pose vectors, m and rad)."""
-    plan, errors = result.plan, result.errors()
+    plan = result.plan
     lines = [
-        f"pick {status}: audit records {audit.pick_id} in {audit.path}",
-        f"  flange pose  {_fmt(plan.T_base_flange)}",
+        f"pick {result.status}: audit records {result.pick_id} in {audit_file}",
+        f"  flange pose  {_fmt(plan.T_base_flange)} ({result.capture.source})",
         f"  object       {_fmt(plan.T_base_obj)}",
     ]
-    for name in STEPS:
-        line = f"  {name:<12} {_fmt(target_of(plan.targets, name))}"
-        if name in errors:
-            error = errors[name]
-            line += f"  reached within {error.position_mm:.2f} mm, {error.rotation_deg:.2f} deg"
-        lines.append(line)
+    for name, T_target in plan.targets().items():
+        lines.append(_step_line(name, T_target, result.errors))
+    if result.T_base_tcp_place is not None:
+        lines.append(_step_line("place", result.T_base_tcp_place, result.errors))
     print("\n".join(lines), flush=True)
+
+
+def _step_line(name: str, T_target: Transform, errors: dict[str, StepError]) -> str:
+    line = f"  {name:<12} {_fmt(T_target)}"
+    error = errors.get(name)
+    if error is not None:
+        line += f"  reached within {error.position_mm:.2f} mm, {error.rotation_deg:.2f} deg"
+    return line
 
 
 def _fmt(T: Transform) -> str:

@@ -12,7 +12,7 @@ link is ``RobotConnectionError``. No method returns a silent ``False``.
 from __future__ import annotations
 
 import enum
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -116,6 +116,19 @@ class RobotArm(Protocol):
         """
         ...
 
+    def steady_flange_pose(self, timeout_s: float) -> Transform:
+        """``T_base_flange`` (m) latched from a fresh RTDE sample while the arm is at rest
+        (every joint still); RobotFault when it does not come to rest within ``timeout_s``."""
+        ...
+
+    def joint_positions(self) -> tuple[float, ...]:
+        """The six joint positions (rad) from the latest RTDE sample."""
+        ...
+
+    def joints_within_safety_limits(self, q_rad: Sequence[float]) -> bool:
+        """The controller's own verdict on a joint target (joint limits, safety planes)."""
+        ...
+
     def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
         """The controller's own verdict on a TCP target (safety planes, joint limits)."""
         ...
@@ -139,6 +152,19 @@ class RobotArm(Protocol):
 
         ``timeout_s`` is the longest the move may take at full speed; the pendant's speed slider
         stretches it in wall-clock time."""
+        ...
+
+    def move_joints(
+        self,
+        q_rad: Sequence[float],
+        speed_rps: float,
+        accel_rps2: float,
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """moveJ to the joint positions ``q_rad`` (rad) at ``speed_rps`` / ``accel_rps2``,
+        watched and stopped (stopJ) exactly as ``move_linear``; returns the reached
+        ``T_base_tcp``."""
         ...
 
     def stop_linear(self, decel_mps2: float) -> None:

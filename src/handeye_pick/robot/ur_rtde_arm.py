@@ -22,7 +22,8 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from pathlib import Path
 from types import TracebackType
@@ -38,6 +39,7 @@ from handeye_pick.geometry import (
     ur_pose_list,
     ur_pose_to_matrix,
 )
+from handeye_pick.limits import JOINT_STOP_DECEL_RPS2
 from handeye_pick.robot.port import (
     OutputBank,
     ProgressCallback,
@@ -58,10 +60,19 @@ POLL_PERIOD_S = 0.004
 REACHED_TOLERANCE_M = 0.001
 REACHED_TOLERANCE_RAD = math.radians(0.5)
 """A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
+REACHED_TOLERANCE_Q_RAD = math.radians(0.1)
+"""A finished moveJ must end with every joint this close to its target."""
+STEADY_JOINT_SPEED_RPS = 0.002
+"""The arm counts as steady (for latching a capture pose) when every joint is slower than this
+(0.11 deg/s: under 2 mm/s at the reach of a UR10e) in two consecutive RTDE samples."""
 MIN_SPEED_SCALING = 0.05
 """A move's timeout stretches with the speed slider, down to this fraction (20 times longer)."""
 STOP_TIMEOUT_S = 2.0
 """stopL gets this long before the program is stopped through the dashboard instead."""
+DASHBOARD_STOP_DEADLINE_S = 15.0
+"""How long a stop through the dashboard is retried after the RTDE link is lost (a controller
+that stalled for 8 s still gets its stop once it answers again)."""
+DASHBOARD_RETRY_S = 0.25
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 OUTPUT_CONFIRM_TIMEOUT_S = 0.5
@@ -108,39 +119,69 @@ _STOP_ADVICE: dict[int, str] = {
 }
 
 
+@dataclass(frozen=True)
+class _MoveKind:
+    """One async motion command as the child sends it: moveL (pose, m/s, m/s^2) or moveJ
+    (joints, rad/s, rad/s^2)."""
+
+    name: str
+    operation: str
+    target: list[float]
+    speed: float
+    accel: float
+
+
+HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
 @contextlib.contextmanager
 def _ctrl_c_held() -> Iterator[None]:
-    """Hold Ctrl-C while one message crosses the pipe to the ur_rtde process.
+    """Hold Ctrl-C (and SIGTERM) while one message crosses the pipe to the ur_rtde process.
 
-    A KeyboardInterrupt between the bytes of a message would desynchronise the pipe, and the
-    stopL that the interrupt is about to send would be lost. The held signal is delivered as soon
-    as the message is through (a few microseconds). Only the main thread receives signals.
+    A KeyboardInterrupt (or ``Terminated``) between the bytes of a message would desynchronise
+    the pipe, and the stopL that the signal is about to send would be lost. A held signal is
+    delivered as soon as the message is through (a few microseconds). Only the main thread
+    receives signals.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     held: list[int] = []
-    previous = signal.signal(signal.SIGINT, lambda signum, _frame: held.append(signum))
+    previous = {
+        signum: signal.signal(signum, lambda received, _frame: held.append(received))
+        for signum in HELD_SIGNALS
+    }
     try:
         yield
     finally:
-        signal.signal(signal.SIGINT, previous)
-        if held and callable(previous):
-            previous(signal.SIGINT, None)
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+        for received in held:
+            handler = previous[signal.Signals(received)]
+            if callable(handler):
+                handler(received, None)
+            elif handler == signal.SIG_DFL and received == signal.SIGTERM:
+                signal.raise_signal(received)  # no handler of ours: die as SIGTERM would have
 
 
-def dashboard_stop(host: str, timeout_s: float = 2.0) -> str:
+def dashboard_stop(host: str, timeout_s: float = 2.0) -> tuple[bool, str]:
     """Stop the running program through a fresh dashboard connection (plain socket, bounded).
 
     The last resort once the RTDE link is gone: no ur_rtde code, so nothing can reconnect or
-    hang. Returns the controller's reply (``Stopped`` on success); raises ``OSError`` on a
-    socket failure or timeout.
+    hang. Returns whether the controller confirmed that no program runs (``Stopped``, or
+    ``programState`` answering ``STOPPED`` when the stop itself was refused) and its answers;
+    raises ``OSError`` on a socket failure or timeout.
     """
     with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout_s) as sock:
         reader = sock.makefile("r", encoding="ascii", newline="\n")
         reader.readline()  # banner
         sock.sendall(b"stop\n")
-        return reader.readline().strip()
+        reply = reader.readline().strip()
+        if reply.lower().startswith("stopped"):
+            return True, reply
+        sock.sendall(b"programState\n")
+        state = reader.readline().strip()
+        return state.upper().startswith("STOPPED"), f"{reply}; programState: {state}"
 
 
 def _log_lines(stream: IO[bytes] | None, host: str) -> None:
@@ -181,6 +222,8 @@ class URRtdeArm:
 
     ``with_io`` opens the RTDE IO interface, needed only for ``set_digital_output``.
     ``stop_decel_mps2`` is the stopL deceleration after a fault, a timeout or Ctrl-C.
+    ``watchdog_s``: ur_rtde's controller-side watchdog stops the program when the ur_rtde
+    process has been silent this long; it stays fed while this object's process lives.
     ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
     that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
     itself gives up on a busy control script after about 4 s).
@@ -192,6 +235,7 @@ class URRtdeArm:
         *,
         with_io: bool = False,
         stop_decel_mps2: float = 10.0,
+        watchdog_s: float = 0.2,
         connect_timeout_s: float = 20.0,
         call_timeout_s: float = 6.0,
     ) -> None:
@@ -205,7 +249,7 @@ class URRtdeArm:
         # its own session, so a Ctrl-C at the terminal reaches only this process, which then
         # still has a working child to send stopL through.
         self._process = subprocess.Popen(
-            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host]
+            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host, str(watchdog_s)]
             + (["--io"] if with_io else []),
             pass_fds=(child_socket.fileno(),),
             stdin=subprocess.DEVNULL,
@@ -309,39 +353,134 @@ class URRtdeArm:
         at 50 % gives the move twice as long in wall-clock time). A fault sends stopL (where
         the link still works) and raises RobotFault; a lost link stops the program through a
         fresh dashboard connection and raises RobotConnectionError; Ctrl-C, or any other
-        exception (a failing ``on_progress``), sends stopL and propagates.
+        exception (a failing ``on_progress``), sends stopL and propagates. A robot switched to
+        local control since the last move is refused before anything is sent (SafetyRefusal).
         """
-        target = ur_pose_list(T_base_tcp)
+
+        def fraction(start: Sample, now: Sample) -> float:
+            T_start, T_now = ur_pose_to_matrix(start.tcp_pose), ur_pose_to_matrix(now.tcp_pose)
+            return motion_fraction(T_start, T_now, T_base_tcp)
+
+        return self._move(
+            _MoveKind("moveL", "move_l_async", ur_pose_list(T_base_tcp), speed_mps, accel_mps2),
+            timeout_s,
+            on_progress,
+            fraction,
+            lambda reached: self._check_reached(reached, T_base_tcp),
+            lambda: self.stop_linear(self._stop_decel_mps2),
+        )
+
+    def move_joints(
+        self,
+        q_rad: Sequence[float],
+        speed_rps: float,
+        accel_rps2: float,
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """Async moveJ to the joint positions ``q_rad`` (rad), watched exactly as ``move_linear``
+        (stopJ instead of stopL); returns the reached ``T_base_tcp``."""
+        target = [float(v) for v in q_rad]
+        if len(target) != 6:
+            raise SafetyRefusal(f"moveJ needs 6 joint positions (rad), got {len(target)}")
+
+        def fraction(start: Sample, now: Sample) -> float:
+            total = max(abs(t - s) for t, s in zip(target, start.q, strict=True))
+            if total < 1e-6:
+                return 1.0
+            left = max(abs(t - v) for t, v in zip(target, now.q, strict=True))
+            return min(1.0, max(0.0, 1.0 - left / total))
+
+        return self._move(
+            _MoveKind("moveJ", "move_j_async", target, speed_rps, accel_rps2),
+            timeout_s,
+            on_progress,
+            fraction,
+            lambda reached: self._check_reached_joints(reached, target),
+            lambda: self.stop_joints(JOINT_STOP_DECEL_RPS2),
+        )
+
+    def steady_flange_pose(self, timeout_s: float) -> Transform:
+        """``T_base_flange`` (m) latched from a fresh RTDE sample while the arm is steady: that
+        sample and the fresh one before it show every joint slower than
+        ``STEADY_JOINT_SPEED_RPS``. RobotFault when the arm is not at rest within ``timeout_s``.
+        Uses the TCP offset last read by ``tcp_offset()``, as ``flange_pose``."""
+        deadline = time.monotonic() + timeout_s
+        steady_before = False
+        while True:
+            sample = self._sample("fresh_sample")
+            fastest_rps = max(abs(v) for v in sample.qd)
+            steady = fastest_rps <= STEADY_JOINT_SPEED_RPS
+            if steady and steady_before:
+                return ur_pose_to_matrix(sample.tcp_pose) @ invert(self._T_flange_tcp)
+            steady_before = steady
+            if time.monotonic() > deadline:
+                raise self._fault(
+                    f"the arm is not at rest after {timeout_s:g} s (fastest joint "
+                    f"{fastest_rps:.4f} rad/s, steady means below {STEADY_JOINT_SPEED_RPS} rad/s)",
+                    sample,
+                )
+
+    def joint_positions(self) -> tuple[float, ...]:
+        """``actual_q`` (rad) of the latest RTDE sample."""
+        return tuple(self._sample("sample").q)
+
+    def joints_within_safety_limits(self, q_rad: Sequence[float]) -> bool:
+        return bool(self._call("is_joints_within_safety_limits", [float(v) for v in q_rad]))
+
+    def _move(
+        self,
+        kind: _MoveKind,
+        timeout_s: float,
+        on_progress: ProgressCallback | None,
+        fraction: Callable[[Sample, Sample], float],
+        check_reached: Callable[[Sample], None],
+        stop: Callable[[], None],
+    ) -> Transform:
+        """Send one async move and watch it to its end (see ``move_linear``)."""
+        start = self._sample("sample")
+        if not self._call("remote_control"):
+            raise SafetyRefusal(
+                f"{kind.name} on {self.host} refused, nothing sent: the robot was switched to "
+                "local control; switch the teach pendant back to Remote Control"
+            )
         try:
-            start = self._sample("sample")
-            self._check_motion_sample(start)  # never start a move on a broken link or stop
-            log.debug("moveL %s v=%.3f a=%.3f", _fmt_pose(target), speed_mps, accel_mps2)
-            accepted = self._call("move_l_async", target, speed_mps, accel_mps2)
-            if not accepted:
+            self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
+            log.debug(
+                "%s %s v=%.3f a=%.3f", kind.name, _fmt_pose(kind.target), kind.speed, kind.accel
+            )
+            if not self._call(kind.operation, kind.target, kind.speed, kind.accel):
                 after = self._sample("sample")
-                raise self._fault(f"moveL to {_fmt_pose(target)} was refused", after)
-            self._watch_motion(start, T_base_tcp, timeout_s, on_progress)
+                raise self._fault(f"{kind.name} to {_fmt_pose(kind.target)} was refused", after)
+            self._watch_motion(kind.name, start, timeout_s, on_progress, fraction)
             reached = self._sample("fresh_sample")
-            self._check_motion_sample(reached)
-            self._check_reached(reached, T_base_tcp)
+            self._check_motion_sample(reached, kind.name)
+            check_reached(reached)
         except RobotConnectionError:
             self._stop_by_dashboard()
             raise
         except BaseException as exc:  # a fault, Ctrl-C, or anything unforeseen: never keep moving
-            log.warning("moveL ended by %s: sending stopL", type(exc).__name__)
-            self.stop_linear(self._stop_decel_mps2)
+            log.warning("%s ended by %s: stopping the arm", kind.name, type(exc).__name__)
+            stop()
             raise
         return ur_pose_to_matrix(reached.tcp_pose)
 
     def stop_linear(self, decel_mps2: float) -> None:
         """stopL; best effort: on a dead link it stops the program through the dashboard."""
+        self._stop("stop_l", decel_mps2)
+
+    def stop_joints(self, decel_rps2: float) -> None:
+        """stopJ; best effort like ``stop_linear``."""
+        self._stop("stop_j", decel_rps2)
+
+    def _stop(self, operation: str, decel: float) -> None:
         if self._dead_reason is not None:
             self._stop_by_dashboard()
             return
         try:
-            self._call("stop_l", decel_mps2, timeout_s=STOP_TIMEOUT_S)
+            self._call(operation, decel, timeout_s=STOP_TIMEOUT_S)
         except RobotError as exc:
-            log.warning("stopL on %s failed (%s)", self.host, exc)
+            log.warning("%s on %s failed (%s)", operation, self.host, exc)
             if isinstance(exc, RobotConnectionError):
                 self._stop_by_dashboard()
 
@@ -383,12 +522,12 @@ class URRtdeArm:
 
     def _watch_motion(
         self,
+        name: str,
         start: Sample,
-        T_target: Transform,
         timeout_s: float,
         on_progress: ProgressCallback | None,
+        fraction: Callable[[Sample, Sample], float],
     ) -> None:
-        T_start = ur_pose_to_matrix(start.tcp_pose)
         motion_time_s = 0.0  # time at full speed: runs slower while the speed slider is down
         last_timestamp = start.timestamp_s
         last_new_sample = last_now = time.monotonic()
@@ -397,41 +536,40 @@ class URRtdeArm:
             now = time.monotonic()
             motion_time_s += (now - last_now) * max(sample.speed_scaling, MIN_SPEED_SCALING)
             last_now = now
-            self._check_motion_sample(sample)
+            self._check_motion_sample(sample, name)
             if sample.timestamp_s != last_timestamp:
                 last_timestamp, last_new_sample = sample.timestamp_s, now
             elif now - last_new_sample > STALE_LINK_S:
-                self._dead_reason = f"no RTDE data for {STALE_LINK_S} s during moveL"
-                raise RobotConnectionError(f"moveL on {self.host}: {self._dead_reason}")
+                self._dead_reason = f"no RTDE data for {STALE_LINK_S} s during {name}"
+                raise RobotConnectionError(f"{name} on {self.host}: {self._dead_reason}")
             # The operation id changes when the move starts, so a move that ended before this
             # first look still reads as done.
             done = (
                 not sample.async_running and sample.async_operation_id != start.async_operation_id
             )
             if on_progress is not None:
-                T_now = ur_pose_to_matrix(sample.tcp_pose)
-                on_progress(1.0 if done else motion_fraction(T_start, T_now, T_target))
+                on_progress(1.0 if done else fraction(start, sample))
             if done:
                 return
             if motion_time_s > timeout_s:
                 raise self._fault(
-                    f"moveL did not finish within {timeout_s:.1f} s (at full speed)", sample
+                    f"{name} did not finish within {timeout_s:.1f} s (at full speed)", sample
                 )
             time.sleep(POLL_PERIOD_S)
 
-    def _check_motion_sample(self, sample: Sample) -> None:
+    def _check_motion_sample(self, sample: Sample, name: str = "moveL") -> None:
         if not (sample.receive_connected and sample.control_connected):
             self._dead_reason = "the RTDE connection dropped"
-            raise RobotConnectionError(f"moveL on {self.host}: {self._dead_reason}")
+            raise RobotConnectionError(f"{name} on {self.host}: {self._dead_reason}")
         if sample.protective_stopped or sample.emergency_stopped:
             kind = "protective stop" if sample.protective_stopped else "emergency stop"
-            raise self._fault(f"moveL: {kind} active", sample)
+            raise self._fault(f"{name}: {kind} active", sample)
         if sample.safety_mode not in (SafetyMode.NORMAL, SafetyMode.REDUCED):
-            raise self._fault("moveL: the controller is not in normal safety mode", sample)
+            raise self._fault(f"{name}: the controller is not in normal safety mode", sample)
         if sample.runtime_state != RuntimeState.PLAYING:
-            raise self._fault("moveL: the control program is not running", sample)
+            raise self._fault(f"{name}: the control program is not running", sample)
         if sample.robot_mode != RobotMode.RUNNING:
-            raise self._fault("moveL: the arm is not running", sample)
+            raise self._fault(f"{name}: the arm is not running", sample)
 
     def _check_reached(self, sample: Sample, T_target: Transform) -> None:
         """The async move reported its end: make sure it ended at the target, not short of it
@@ -447,6 +585,16 @@ class URRtdeArm:
                 sample,
             )
 
+    def _check_reached_joints(self, sample: Sample, q_target: list[float]) -> None:
+        """As ``_check_reached``, for a moveJ: every joint within ``REACHED_TOLERANCE_Q_RAD``."""
+        off_rad = max(abs(t - v) for t, v in zip(q_target, sample.q, strict=True))
+        if off_rad > REACHED_TOLERANCE_Q_RAD:
+            raise self._fault(
+                f"moveJ ended {math.degrees(off_rad):.2f} deg from its target on some joint "
+                f"(tolerance {math.degrees(REACHED_TOLERANCE_Q_RAD):g} deg)",
+                sample,
+            )
+
     def _fault(self, what: str, sample: Sample) -> RobotFault:
         return RobotFault(
             f"{what} on {self.host} ({_state_text(sample)})",
@@ -456,13 +604,34 @@ class URRtdeArm:
         )
 
     def _stop_by_dashboard(self) -> None:
-        """Kill the child (it may be reconnecting) and send ``stop`` on a fresh dashboard socket."""
+        """Kill the child (it may be reconnecting), then send ``stop`` on fresh dashboard
+        connections until the controller answers that it stopped or ``DASHBOARD_STOP_DEADLINE_S``
+        passes (a stalled controller may answer only later). Logged as an error when it could
+        not be confirmed: the arm may still be moving."""
         self._kill()
-        try:
-            reply = dashboard_stop(self.host)
-            log.warning("link to %s lost: dashboard stop answered %r", self.host, reply)
-        except OSError as exc:
-            log.error("link to %s lost and dashboard stop failed: %s", self.host, exc)
+        deadline = time.monotonic() + DASHBOARD_STOP_DEADLINE_S
+        attempts = 0
+        while True:
+            attempts += 1
+            try:
+                confirmed, reply = dashboard_stop(self.host)
+            except OSError as exc:
+                confirmed, reply = False, f"no answer ({exc})"
+            if confirmed:
+                log.warning("link to %s lost: dashboard stop confirmed (%r)", self.host, reply)
+                return
+            if time.monotonic() > deadline:
+                log.error(
+                    "LINK TO %s LOST AND THE STOP COULD NOT BE CONFIRMED after %d attempts in "
+                    "%.0f s (last answer: %s): the arm may still be moving; use the emergency "
+                    "stop",
+                    self.host,
+                    attempts,
+                    DASHBOARD_STOP_DEADLINE_S,
+                    reply,
+                )
+                return
+            time.sleep(DASHBOARD_RETRY_S)
 
     # --- pipe --------------------------------------------------------------------------------
 
@@ -491,8 +660,18 @@ class URRtdeArm:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
         self._pending_reply = True
+        started = time.perf_counter()
         kind, value = self._receive(operation, timeout_s)
         self._pending_reply = False
+        if operation != "sample":  # cached RTDE state polled during moves: no controller traffic
+            log.debug(
+                "%s%s -> %s %.60r in %.2f ms",
+                operation,
+                tuple(args),
+                kind,
+                value,
+                (time.perf_counter() - started) * 1000.0,
+            )
         if kind == "failure" and isinstance(value, dict):
             raise self._call_error(Failure(**value))
         if kind != "ok":

@@ -1,6 +1,7 @@
 """The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
 
-Run as a script, ``python .../robot/worker.py FD HOST [--io]``, by ``URRtdeArm``: FD is this end
+Run as a script, ``python .../robot/worker.py FD HOST WATCHDOG_S [--io]``, by ``URRtdeArm``
+(WATCHDOG_S: see ``WATCHDOG_KICKS_PER_WINDOW``): FD is this end
 of a socket pair used as a ``multiprocessing.connection.Connection``. As a script it imports
 only the standard library and ur_rtde (importing the package would load numpy, scipy and numba,
 half a second per connection), so everything it sends is plain data: dicts, lists, numbers.
@@ -31,6 +32,12 @@ FRESH_SAMPLE_TIMEOUT_S = 0.5
 """How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
 FIRST_SAMPLE_TIMEOUT_S = 1.0
 """How long a new receive interface may go without data before the connection fails."""
+WATCHDOG_KICKS_PER_WINDOW = 4
+"""ur_rtde's controller-side watchdog (field note 17): the control script stops the program, and
+the arm, when this process has not written its command register for WATCHDOG_S seconds. It is
+kicked four times per window for as long as the parent's pipe is open, idle or busy, so the
+program stops about WATCHDOG_S after the parent dies or this process does (SIGKILL, a crash, a
+power cut)."""
 # robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING (not imported: see above).
 SAFETY_MODES_THAT_RUN = (1, 2)
 ROBOT_MODE_RUNNING = 7
@@ -75,6 +82,8 @@ class Sample:
 
     timestamp_s: float
     tcp_pose: list[float]
+    q: list[float]  # actual_q, joint positions (rad)
+    qd: list[float]  # actual_qd, joint speeds (rad/s)
     robot_mode: int
     safety_mode: int
     runtime_state: int
@@ -91,7 +100,7 @@ class Sample:
 class _Session:
     """The ur_rtde interfaces of one connection; methods are the operations the parent calls."""
 
-    def __init__(self, host: str, with_io: bool) -> None:
+    def __init__(self, host: str, with_io: bool, watchdog_s: float) -> None:
         # Imported here: the parent process never loads ur_rtde.
         import dashboard_client
         import rtde_control
@@ -117,6 +126,10 @@ class _Session:
             raise _ConnectRefused(
                 exc, int(self._receive.getSafetyMode()), int(self._receive.getRobotMode())
             ) from exc
+        if not self._control.setWatchdog(1.0 / watchdog_s):
+            raise RuntimeError(f"the control script refused setWatchdog({1.0 / watchdog_s} Hz)")
+        self.kick_period_s = watchdog_s / WATCHDOG_KICKS_PER_WINDOW
+        self._last_kick_s = time.monotonic()
         self._io: Any = rtde_io.RTDEIOInterface(host) if with_io else None
         self._dashboard: Any = dashboard_client.DashboardClient(host)
         self._dashboard.connect()
@@ -147,6 +160,8 @@ class _Session:
         return Sample(
             timestamp_s=float(r.getTimestamp()),
             tcp_pose=list(r.getActualTCPPose()),
+            q=list(r.getActualQ()),
+            qd=list(r.getActualQd()),
             robot_mode=int(r.getRobotMode()),
             safety_mode=int(r.getSafetyMode()),
             runtime_state=int(r.getRuntimeState()),
@@ -174,6 +189,14 @@ class _Session:
             time.sleep(0.0002)
         return self.sample()
 
+    def kick_watchdog_if_due(self) -> None:
+        """Feed the controller's watchdog when ``kick_period_s`` has passed since the last kick.
+        A refused kick (program already stopped) is not an error here: the next command says."""
+        now = time.monotonic()
+        if now - self._last_kick_s >= self.kick_period_s:
+            self._control.kickWatchdog()
+            self._last_kick_s = now
+
     def require_link(self) -> None:
         """Refuse any controller call once the receive stream died: the control interface may
         have reconnected by itself since, and nothing may be sent through such a link. The
@@ -199,6 +222,15 @@ class _Session:
     def stop_l(self, decel_mps2: float) -> None:
         self._control.stopL(decel_mps2, False)
 
+    def is_joints_within_safety_limits(self, q: list[float]) -> bool:
+        return bool(self._control.isJointsWithinSafetyLimits(q))
+
+    def move_j_async(self, q: list[float], speed_rps: float, accel_rps2: float) -> bool:
+        return bool(self._control.moveJ(q, speed_rps, accel_rps2, True))
+
+    def stop_j(self, decel_rps2: float) -> None:
+        self._control.stopJ(decel_rps2, False)
+
     def set_standard_digital_out(self, index: int, value: bool) -> bool:
         return bool(self._require_io().setStandardDigitalOut(index, value))
 
@@ -211,13 +243,13 @@ class _Session:
         return self._io
 
 
-def serve(conn: Connection, host: str, with_io: bool) -> None:
+def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None:
     """Connect, announce, answer requests until ``close`` or EOF (the parent is gone)."""
     # Only the parent decides when to stop the robot; its own session keeps a terminal's Ctrl-C
     # away already, this keeps away one sent to the process group.
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
-        session = _Session(host, with_io)
+        session = _Session(host, with_io, watchdog_s)
     except _ConnectRefused as exc:
         failure = Failure(
             "connect", type(exc.cause).__name__, str(exc), exc.safety_mode, exc.robot_mode
@@ -237,13 +269,20 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
         "has_ik_solution": session.has_ik_solution,
         "move_l_async": session.move_l_async,
         "stop_l": session.stop_l,
+        "is_joints_within_safety_limits": session.is_joints_within_safety_limits,
+        "move_j_async": session.move_j_async,
+        "stop_j": session.stop_j,
         "set_standard_digital_out": session.set_standard_digital_out,
         "set_tool_digital_out": session.set_tool_digital_out,
     }
     while True:
+        # Idle or busy, the watchdog is fed between requests while the parent is alive.
+        session.kick_watchdog_if_due()
+        if not conn.poll(session.kick_period_s):
+            continue
         try:
             operation, args = conn.recv()
-        except EOFError:  # parent gone: leave without touching the robot
+        except EOFError:  # parent gone: leave; the starved watchdog stops the program
             os._exit(0)
         if operation == "close":
             conn.send(("ok", None))
@@ -261,7 +300,7 @@ def serve(conn: Connection, host: str, with_io: bool) -> None:
 
 def main() -> None:
     conn = Connection(int(sys.argv[1]))
-    serve(conn, sys.argv[2], with_io="--io" in sys.argv[3:])
+    serve(conn, sys.argv[2], with_io="--io" in sys.argv[4:], watchdog_s=float(sys.argv[3]))
 
 
 if __name__ == "__main__":

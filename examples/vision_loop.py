@@ -1,0 +1,324 @@
+"""A vision client driving `handeye-pick run` through a pipe: five capture/pick/place cycles.
+
+Starts the simulated UR5e controller (mocks/ur_controller) at the address in config/loop.yaml,
+builds a simulated scene (a table and five boxes, mocks/camera) watched by a wrist camera mounted
+exactly where config/loop/hand_eye.yaml says (a perfect calibration, so every error left is the
+vision's or the cell's), starts
+
+    handeye-pick run --config config/loop.yaml
+
+and, five times: asks `run` to capture at the named pose `capture`, renders the cloud from the
+simulated arm's pose, finds the boxes' top faces in it with plain numpy and scipy.ndimage, sends
+them as candidates of a pick, checks that the grasp (planned and reached) landed within 1 mm of
+the true centre of a box's top face, and moves that box to where it was placed. Prints one line
+per cycle and a summary; exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches all
+three processes: `run` stops the arm and exits 130, then the controller is stopped.
+
+Run it from anywhere after `pip install -e .`:  python examples/vision_loop.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import queue
+import subprocess
+import sys
+import threading
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, Any
+
+import numpy as np
+import yaml
+from numpy.typing import NDArray
+from scipy import ndimage
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from here
+
+from mocks.camera import Intrinsics, Scene, SimulatedCamera, read_zivid_matrix  # noqa: E402
+from mocks.ur_controller import SimulatedController  # noqa: E402
+from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
+
+CONFIG = ROOT / "config" / "loop.yaml"
+CYCLES = 5
+TOLERANCE_MM = 1.0  # largest accepted distance of a grasp from the true top-face centre
+SPEED_FACTOR = 4.0  # the simulated arm moves four times faster than real time
+REPLY_TIMEOUT_S = 60.0
+# 640 x 480 over 40 degrees: about 0.5 mm per pixel on the box tops at the capture pose, so a
+# top face's centre (the mean of its points) is found to a few tenths of a millimetre.
+INTRINSICS = Intrinsics.from_fov(640, 480, hfov_deg=40.0)
+# Boxes on the table (robot base frame, m, deg): edge lengths x, y, height; position; yaw. All
+# lie in the camera's view at the capture pose; the place poses (config) lie outside it.
+BOXES: dict[str, tuple[tuple[float, float, float], float, float, float]] = {
+    "a": ((0.08, 0.06, 0.05), -0.60, -0.20, 20.0),
+    "b": ((0.06, 0.06, 0.04), -0.46, -0.20, -35.0),
+    "c": ((0.10, 0.05, 0.06), -0.62, -0.07, 70.0),
+    "d": ((0.07, 0.05, 0.035), -0.49, -0.06, 5.0),
+    "e": ((0.05, 0.04, 0.045), -0.40, -0.13, 45.0),
+}
+
+# Box finding, in the camera frame (mm).
+TABLE_BAND_MM = 3.0  # points less than this above the fitted table count as table
+MIN_BOX_HEIGHT_MM = 10.0  # points this far above the table belong to a box
+TOP_FACE_BAND_MM = 1.0  # a box's top face: its points within this of its highest point
+MIN_BOX_PIXELS = 50  # smaller blobs are noise, not boxes
+
+# The installed console script may not be on PATH (venv not activated): call its function.
+HANDEYE_PICK = [sys.executable, "-c",
+                "import sys; from handeye_pick.cli import main; sys.exit(main())"]
+
+Cloud = NDArray[np.float32]
+Array = NDArray[np.float64]  # a point (3,) or a pose (4, 4), as each name says
+
+
+# --- the simulated world --------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Cell:
+    """What the example reads from the cell config: where the robot is, its TCP, the hand-eye."""
+
+    config: Path
+    host: str
+    tcp_offset: tuple[float, ...]  # T_flange_tcp as a UR vector (m, rad)
+    hand_eye_file: Path  # T_flange_cam, Zivid format, mm
+
+
+def read_cell(config: Path) -> Cell:
+    """The controller address, TCP offset and hand-eye file named in a cell config."""
+    doc = yaml.safe_load(config.read_text())
+    hand_eye = doc["hand_eye"]
+    if hand_eye["mode"] != "eye-in-hand" or hand_eye["units"] != "mm" or hand_eye.get("invert"):
+        raise ValueError(f"{config}: this example needs an eye-in-hand camera in mm, not inverted")
+    return Cell(
+        config=config,
+        host=str(doc["robot"]["host"]),
+        tcp_offset=tuple(float(v) for v in doc["robot"]["tcp_offset"]),
+        hand_eye_file=(config.parent / hand_eye["file"]).resolve(),
+    )
+
+
+def build_scene() -> Scene:
+    """The table (at the robot base's height) with the boxes of BOXES on it."""
+    scene = Scene(table_height_m=0.0)
+    for name, (size_m, x_m, y_m, yaw_deg) in BOXES.items():
+        scene.add_box(name, size_m, scene.on_table(x_m, y_m, np.radians(yaw_deg)))
+    return scene
+
+
+def build_camera(scene: Scene, hand_eye_file: Path) -> SimulatedCamera:
+    """A wrist camera mounted at the T_flange_cam the hand-eye file holds (mm -> m)."""
+    T_flange_cam = read_zivid_matrix(hand_eye_file)
+    T_flange_cam[:3, 3] /= 1000.0
+    return SimulatedCamera(scene, INTRINSICS, T_flange_cam=T_flange_cam)
+
+
+def place_box(scene: Scene, name: str, T_base_tcp_grasp: Array, T_base_tcp_place: Array) -> None:
+    """Move box ``name`` as the gripper carried it from the grasp to the place pose, then let it
+    drop onto the table (both tool poses point straight down, so the box stays upright)."""
+    T_tcp_box = np.linalg.inv(T_base_tcp_grasp) @ scene.boxes[name].T_base_box
+    T_base_box = T_base_tcp_place @ T_tcp_box
+    T_base_box[2, 3] = scene.table_height_m
+    scene.move_box(name, T_base_box)
+
+
+# --- the vision: boxes in an organized cloud ----------------------------------------------------
+
+
+def _plane(points: NDArray[np.float64]) -> tuple[Array, Array]:
+    """Least-squares plane through points (N, 3): (centroid, unit normal towards the camera)."""
+    centroid = points.mean(axis=0)
+    _, vectors = np.linalg.eigh(np.cov((points - centroid).T))
+    normal = vectors[:, 0]  # the direction of least spread
+    if normal @ centroid > 0.0:  # the camera is at the origin: point the normal at it
+        normal = -normal
+    return centroid, normal
+
+
+def height_above_table(cloud_mm: Cloud) -> NDArray[np.float64]:
+    """Each pixel's height above the table plane (mm, NaN without data), shape (H, W).
+
+    The table is fitted to every 4th row and column of the cloud, then again to those points not
+    clearly above the last fit, until the set stops changing: the boxes (above the table) drop
+    out, the table stays.
+    """
+    sample = cloud_mm[::4, ::4].reshape(-1, 3).astype(np.float64)
+    sample = sample[np.isfinite(sample).all(axis=1)]
+    table = np.ones(len(sample), dtype=bool)
+    for _ in range(10):
+        centroid, normal = _plane(sample[table])
+        now = (sample - centroid) @ normal < TABLE_BAND_MM
+        if np.array_equal(now, table):
+            break
+        table = now
+    height: NDArray[np.float64] = (cloud_mm.astype(np.float64) - centroid) @ normal
+    return height  # NaN where the cloud has none
+
+
+def find_boxes(cloud_mm: Cloud) -> list[Array]:
+    """The centres of the boxes' top faces in the camera frame (mm), tallest box first.
+
+    Pixels clearly above the table form one connected blob per box (boxes must not touch in
+    the image); a blob on the image's border is a box only partly seen and is left out. A box's
+    top face is its blob's pixels within TOP_FACE_BAND_MM of its highest point, and its centre
+    is their mean (exact for a face parallel to the image plane).
+    """
+    height = height_above_table(cloud_mm)
+    above = np.nan_to_num(height, nan=0.0) > MIN_BOX_HEIGHT_MM
+    labels, count = ndimage.label(above)
+    border = set(np.concatenate([labels[0], labels[-1], labels[:, 0], labels[:, -1]]).tolist())
+    found: list[tuple[float, Array]] = []
+    for label in range(1, count + 1):
+        blob = labels == label
+        if label in border or blob.sum() < MIN_BOX_PIXELS:
+            continue
+        top_height = float(height[blob].max())
+        top = blob & (height > top_height - TOP_FACE_BAND_MM)
+        found.append((top_height, cloud_mm[top].astype(np.float64).mean(axis=0)))
+    found.sort(key=lambda item: -item[0])
+    return [centre for _, centre in found]
+
+
+# --- the pipe to `handeye-pick run` -------------------------------------------------------------
+
+
+class RunSession:
+    """`handeye-pick run --config CONFIG` as a child process: one JSON request per line on its
+    stdin, one JSON reply per line on its stdout; its progress goes to our stderr."""
+
+    def __init__(self, config: Path):
+        self._process = subprocess.Popen(
+            [*HANDEYE_PICK, "run", "--config", str(config)],
+            cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, bufsize=1,
+        )
+        self._lines: queue.Queue[str | None] = queue.Queue()
+        threading.Thread(target=self._read, args=(self._process.stdout,), daemon=True).start()
+        self._next_id = 0
+
+    def _read(self, stream: IO[str]) -> None:
+        for line in stream:
+            self._lines.put(line)
+        self._lines.put(None)  # end of output: the process is gone
+
+    def request(self, op: str, **fields: Any) -> dict[str, Any]:
+        """Send one request and return its reply; RuntimeError if none comes."""
+        self._next_id += 1
+        request_id = str(self._next_id)
+        stdin = self._process.stdin
+        if stdin is None:
+            raise RuntimeError("handeye-pick run has no input pipe")
+        stdin.write(json.dumps({"id": request_id, "op": op, **fields}) + "\n")
+        stdin.flush()
+        try:
+            line = self._lines.get(timeout=REPLY_TIMEOUT_S)
+        except queue.Empty:
+            raise RuntimeError(f"no reply to {op} within {REPLY_TIMEOUT_S:.0f} s") from None
+        if line is None:
+            raise RuntimeError(f"handeye-pick run ended (exit {self._process.wait()}) "
+                               f"without answering {op}")
+        reply: dict[str, Any] = json.loads(line)
+        if reply.get("id") != request_id:
+            raise RuntimeError(f"reply {reply} does not answer request {request_id} ({op})")
+        return reply
+
+    def close(self) -> int:
+        """Send quit, close the pipe and return run's exit status."""
+        stdin = self._process.stdin
+        if stdin is not None and self._process.poll() is None:
+            try:
+                stdin.write(json.dumps({"id": "quit", "op": "quit"}) + "\n")
+                stdin.close()
+            except BrokenPipeError:
+                pass  # it has already gone; its exit status says how
+        try:
+            return self._process.wait(timeout=30.0)
+        except subprocess.TimeoutExpired:
+            self._process.kill()
+            return self._process.wait()
+
+
+# --- one cycle ----------------------------------------------------------------------------------
+
+
+def nearest_box(scene: Scene, point_m: Array) -> tuple[str, float]:
+    """The box whose top-face centre is nearest ``point_m`` (base, m), and the distance (mm)."""
+    distances = {name: float(np.linalg.norm(box.top_centre_m() - point_m)) * 1000.0
+                 for name, box in scene.boxes.items()}
+    name = min(distances, key=distances.__getitem__)
+    return name, distances[name]
+
+
+def run_cycle(number: int, run: RunSession, controller: SimulatedController, scene: Scene,
+              camera: SimulatedCamera) -> list[str]:
+    """One capture/pick/place cycle; returns what went wrong (empty when every check passed)."""
+    capture = run.request("capture", pose="capture")
+    if not capture.get("ok"):
+        return [f"capture failed: {capture.get('error')}"]
+    cloud = camera.capture_from(controller)
+    latched = pose_to_matrix(capture["flange_pose_ur"])
+    now = pose_to_matrix(controller.snapshot().flange_pose)
+    problems = []
+    if float(np.abs(latched - now).max()) > 1e-6:
+        problems.append("the latched flange pose is not where the arm stands")
+    boxes = find_boxes(cloud)
+    if not boxes:
+        return [*problems, "no box found in the cloud"]
+    candidates = [{"position_mm": [round(float(v), 4) for v in centre]} for centre in boxes]
+    pick = run.request("pick", capture_id=capture["capture_id"], candidates=candidates)
+    if not pick.get("ok") or pick.get("status") != "placed":
+        return [*problems, f"pick ended {pick.get('status')}: {pick.get('error')}"]
+    grasp = pose_to_matrix(pick["targets"]["grasp"])
+    reached = pose_to_matrix(pick["reached"]["grasp"])
+    name, planned_mm = nearest_box(scene, grasp[:3, 3])
+    reached_mm = float(np.linalg.norm(scene.top_centre_m(name) - reached[:3, 3])) * 1000.0
+    for what, error_mm in (("planned", planned_mm), ("reached", reached_mm)):
+        if error_mm > TOLERANCE_MM:
+            problems.append(f"{what} grasp {error_mm:.2f} mm from box {name}'s top centre")
+    place_box(scene, name, reached, pose_to_matrix(pick["place"]["pose"]))
+    print(f"cycle {number}: boxes seen {len(boxes)}, picked box {name} (candidate "
+          f"{pick['candidate']}), grasp {planned_mm:.2f} mm planned / {reached_mm:.2f} mm reached "
+          f"from its top centre, placed at {pick['place']['index']}, {pick['cycle_s']:.1f} s",
+          flush=True)
+    return problems
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", type=Path, default=CONFIG, help="cell config (loop.yaml)")
+    cell = read_cell(parser.parse_args(argv).config.resolve())
+    scene = build_scene()
+    camera = build_camera(scene, cell.hand_eye_file)
+    started = time.monotonic()
+    problems: list[str] = []
+    done = 0
+    with SimulatedController(host=cell.host, tcp_offset=cell.tcp_offset,
+                             speed_factor=SPEED_FACTOR) as controller:
+        run = RunSession(cell.config)
+        try:
+            while done < CYCLES and not problems:
+                done += 1
+                problems += [f"cycle {done}: {p}"
+                             for p in run_cycle(done, run, controller, scene, camera)]
+            if not problems:
+                home = run.request("move", pose="home")
+                if not home.get("ok"):
+                    problems.append(f"move home ended {home.get('status')}: {home.get('error')}")
+        except RuntimeError as exc:  # no reply, or not the one asked for
+            problems.append(str(exc))
+        finally:
+            status = run.close()
+    if status != 0:
+        problems.append(f"handeye-pick run exited with status {status}")
+    for problem in problems:
+        print(f"FAILED {problem}", file=sys.stderr)
+    verdict = "every check passed" if not problems else f"{len(problems)} checks FAILED"
+    print(f"{done} of {CYCLES} cycles, {verdict} (grasps within {TOLERANCE_MM} mm of the true "
+          f"top centres), {time.monotonic() - started:.1f} s in all")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,322 @@
+"""The request protocol of ``handeye-pick run``: one JSON request in, one JSON reply out.
+
+``Runner.handle(line)`` parses and validates a whole request before it calls the cell, so a
+request that is malformed in any part moves nothing; it never raises for a bad request or a
+refused or failed operation: every ending becomes a reply. Only Ctrl-C/SIGTERM
+(``KeyboardInterrupt``, after the cell stopped the arm) and defects propagate, and
+``Runner.interrupted_reply`` answers the request in flight for them.
+
+Requests (camera frame in mm for detections, robot poses as UR vectors in m and rad)::
+
+    {"id": "1", "op": "capture", "pose": "capture"}          pose optional
+    {"id": "2", "op": "pick", "capture_id": "c1", "candidates": [DETECTION, ...],
+     "place": true, "dry_run": false}                        place, dry_run optional
+    {"id": "3", "op": "place"}    {"id": "4", "op": "move", "pose": "home"}
+    {"id": "5", "op": "status"}   {"id": "6", "op": "resume"}   {"id": "7", "op": "quit"}
+
+Every reply carries ``id`` and ``ok``; failed ones ``status`` and ``error``. A request may carry
+``token`` (required when the runner was given one, see ``cli/run.py``).
+"""
+
+from __future__ import annotations
+
+import hmac
+import json
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from handeye_pick.calibration import HandEyeMode
+from handeye_pick.cell import Capture, Cell, NoFeasibleCandidate, PickResult
+from handeye_pick.detection import Detection, detection_from_data
+from handeye_pick.errors import CellHalted, InputError, RobotError, SafetyRefusal, Terminated
+from handeye_pick.geometry import ur_pose_list
+from handeye_pick.safety import PreflightRefusal
+
+log = logging.getLogger(__name__)
+
+MAX_LINE_BYTES = 1_000_000
+"""Longest request line read; a longer one is answered with an error, never held in memory."""
+MAX_CANDIDATES = 100
+"""Most candidate detections one pick request may carry."""
+
+_KEYS: dict[str, tuple[str, ...]] = {
+    "capture": ("pose",),
+    "pick": ("capture_id", "candidates", "place", "dry_run"),
+    "place": (),
+    "move": ("pose",),
+    "status": (),
+    "resume": (),
+    "quit": (),
+}
+_COMMON_KEYS = ("id", "op", "token")
+
+
+class BadRequest(InputError):
+    """The request line is not a complete, valid request; nothing was done."""
+
+
+@dataclass(frozen=True)
+class Request:
+    """A parsed and fully validated request."""
+
+    id: str | int | None
+    op: str
+    pose: str | None = None
+    capture_id: str | None = None
+    candidates: tuple[Detection, ...] = ()
+    place: bool = True
+    dry_run: bool = False
+
+
+class Runner:
+    """Answers requests with ``cell``; ``token`` (when set) must come with every request."""
+
+    def __init__(self, cell: Cell, token: str | None = None) -> None:
+        self.cell = cell
+        self._token = token
+        self.quit = False
+
+    def handle(self, line: bytes | str) -> dict[str, object]:
+        """The reply to one request line (without its newline)."""
+        request_id: str | int | None = None
+        try:
+            data = _parse_json(line)
+            request_id = _request_id(data)
+            self._check_token(data)
+            request = _validate(data, request_id)
+        except BadRequest as exc:
+            return {"id": request_id, "ok": False, "status": "bad-request", "error": str(exc)}
+        try:
+            return {"id": request.id, **self._dispatch(request)}
+        except (KeyboardInterrupt, SystemExit):
+            raise
+        except (InputError, SafetyRefusal, RobotError) as exc:
+            return {"id": request.id, "ok": False, **failure_fields(exc)}
+
+    @staticmethod
+    def interrupted_reply(request_line: bytes | str, exc: KeyboardInterrupt) -> dict[str, object]:
+        """The reply for the request in flight when Ctrl-C or SIGTERM ended the session."""
+        try:
+            request_id = _request_id(_parse_json(request_line))
+        except BadRequest:
+            request_id = None
+        signal_name = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
+        return {
+            "id": request_id,
+            "ok": False,
+            "status": "interrupted",
+            "error": f"{signal_name}: the arm was stopped and the outcome written; exiting",
+        }
+
+    def _check_token(self, data: Mapping[str, Any]) -> None:
+        if self._token is None:
+            return
+        given = data.get("token")
+        if not isinstance(given, str) or not hmac.compare_digest(given, self._token):
+            raise BadRequest("missing or wrong token: every request must carry the shared token")
+
+    def _dispatch(self, request: Request) -> dict[str, object]:
+        cell = self.cell
+        rid = None if request.id is None else str(request.id)
+        if request.op == "capture":
+            return _capture_reply(cell.capture(request.pose, request_id=rid))
+        if request.op == "pick":
+            capture = None
+            if request.capture_id is not None:
+                capture = cell.find_capture(request.capture_id)
+            elif cell.calibration.mode is HandEyeMode.EYE_IN_HAND:
+                raise BadRequest(
+                    "pick: an eye-in-hand pick needs the capture_id of the capture its image "
+                    "was taken at (send a capture request first)"
+                )
+            result = cell.pick(
+                request.candidates,
+                capture,
+                place=request.place,
+                dry_run=request.dry_run,
+                request_id=rid,
+            )
+            return pick_reply(result)
+        if request.op == "place":
+            T_place = cell.place(request_id=rid)
+            return {"ok": True, "status": "placed", "place_pose": ur_pose_list(T_place)}
+        if request.op == "move" and request.pose is not None:  # _validate requires the pose
+            reached = cell.move_to(request.pose, request_id=rid)
+            return {
+                "ok": True,
+                "status": "moved",
+                "pose": request.pose,
+                "tcp_pose": ur_pose_list(reached),
+            }
+        if request.op == "status":
+            return status_reply(cell)
+        if request.op == "resume":
+            cell.resume(request_id=rid)
+            return {"ok": True, "status": "ready"}
+        if request.op == "quit":
+            self.quit = True
+            return {"ok": True, "status": "bye"}
+        raise BadRequest(f"{request.op}: incomplete request")
+
+
+def failure_fields(exc: BaseException) -> dict[str, object]:
+    """``status`` and ``error`` of a reply for a refused or failed request."""
+    fields: dict[str, object] = {"error": str(exc), "error_type": type(exc).__name__}
+    if isinstance(exc, NoFeasibleCandidate):
+        fields["status"] = "no-candidate"
+        fields["refused"] = [{"candidate": r.candidate, "reasons": r.reasons} for r in exc.refusals]
+    elif isinstance(exc, PreflightRefusal):
+        fields["status"] = "no-candidate"
+        failed = [f"{r.target} {r.name}: {r.detail}" for r in exc.results if not r.passed]
+        fields["refused"] = [{"candidate": 0, "reasons": failed}]
+    elif isinstance(exc, CellHalted):
+        fields["status"] = "halted"
+    elif isinstance(exc, SafetyRefusal):
+        fields["status"] = "refused"
+    elif isinstance(exc, RobotError):
+        fields["status"] = "fault"
+    else:
+        fields["status"] = "bad-request"
+    return fields
+
+
+def pick_reply(result: PickResult) -> dict[str, object]:
+    reply: dict[str, object] = {
+        "ok": True,
+        "status": result.status,
+        "candidate": result.candidate,
+        "capture_id": result.capture.capture_id,
+        "cycle": result.cycle,
+        "pick_id": result.pick_id,
+        "cycle_s": round(result.cycle_s, 4),
+        "targets": result.plan.targets_ur(),
+        "reached": {name: ur_pose_list(T) for name, T in result.reached.items()},
+        "errors_mm": {name: round(e.position_mm, 4) for name, e in result.errors.items()},
+        "refused": [{"candidate": r.candidate, "reasons": r.reasons} for r in result.refused],
+    }
+    if result.T_base_tcp_place is not None:
+        reply["place"] = {
+            "index": result.place_index,
+            "pose": ur_pose_list(result.T_base_tcp_place),
+        }
+    return reply
+
+
+def status_reply(cell: Cell) -> dict[str, object]:
+    state = cell.status()
+    reply: dict[str, object] = {
+        "ok": True,
+        "status": "ready" if state.ready else "not-ready",
+        "ready": state.ready,
+        "halted": state.halted is not None,
+        "halted_reason": state.halted,
+        "problems": state.problems,
+    }
+    if state.T_base_flange is not None:
+        reply["flange_pose_ur"] = ur_pose_list(state.T_base_flange)
+    if state.T_base_tcp is not None:
+        reply["tcp_pose_ur"] = ur_pose_list(state.T_base_tcp)
+    return reply
+
+
+def _capture_reply(capture: Capture) -> dict[str, object]:
+    return {
+        "ok": True,
+        "status": "captured",
+        "capture_id": capture.capture_id,
+        "cycle": capture.cycle,
+        "flange_pose_ur": (
+            ur_pose_list(capture.T_base_flange) if capture.T_base_flange is not None else None
+        ),
+        "timestamp": capture.timestamp.isoformat(timespec="microseconds"),
+    }
+
+
+# --- parsing ------------------------------------------------------------------------------------
+
+
+def _reject_constant(name: str) -> float:
+    raise BadRequest(f"{name} is not a number JSON allows")
+
+
+def _parse_json(line: bytes | str) -> dict[str, Any]:
+    if len(line) > MAX_LINE_BYTES:
+        raise BadRequest(f"request longer than {MAX_LINE_BYTES} bytes")
+    try:
+        data = json.loads(line, parse_constant=_reject_constant)
+    except (ValueError, RecursionError) as exc:
+        raise BadRequest(f"not valid JSON: {exc}") from None
+    if not isinstance(data, dict):
+        raise BadRequest(f"a request is a JSON object, got {type(data).__name__}")
+    return data
+
+
+def _request_id(data: Mapping[str, Any]) -> str | int | None:
+    request_id = data.get("id")
+    if request_id is None or isinstance(request_id, str):
+        return request_id
+    if isinstance(request_id, int) and not isinstance(request_id, bool):
+        return request_id
+    raise BadRequest(f"id must be a string or an integer, got {request_id!r}")
+
+
+def _validate(data: Mapping[str, Any], request_id: str | int | None) -> Request:
+    op = data.get("op")
+    if not isinstance(op, str) or op not in _KEYS:
+        raise BadRequest(f"op must be one of {', '.join(_KEYS)}, got {op!r}")
+    unknown = sorted(set(data) - set(_COMMON_KEYS) - set(_KEYS[op]))
+    if unknown:
+        raise BadRequest(f"{op}: unknown keys {unknown} (allowed: {', '.join(_KEYS[op])})")
+    pose = _optional(data, "pose", str)
+    if op == "move" and pose is None:
+        raise BadRequest("move: give the name of a pose under poses in the config")
+    candidates: tuple[Detection, ...] = ()
+    if op == "pick":
+        listed = data.get("candidates")
+        if not isinstance(listed, list) or not 1 <= len(listed) <= MAX_CANDIDATES:
+            raise BadRequest(f"pick: candidates must be a list of 1 to {MAX_CANDIDATES} detections")
+        candidates = tuple(_candidate(item, request_id, i) for i, item in enumerate(listed))
+    place = _optional(data, "place", bool)
+    dry_run = _optional(data, "dry_run", bool)
+    return Request(
+        id=request_id,
+        op=op,
+        pose=pose,
+        capture_id=_optional(data, "capture_id", str),
+        candidates=candidates,
+        place=True if place is None else place,
+        dry_run=bool(dry_run),
+    )
+
+
+def _candidate(item: object, request_id: str | int | None, index: int) -> Detection:
+    source = f"request {request_id} candidate {index}"
+    _reject_non_finite(item, source)
+    try:
+        return detection_from_data(item, source)
+    except InputError as exc:
+        raise BadRequest(str(exc)) from None
+
+
+def _reject_non_finite(value: object, source: str) -> None:
+    """Huge JSON numbers (1e400) parse as inf: refuse them here with the source named."""
+    if isinstance(value, float) and not math.isfinite(value):
+        raise BadRequest(f"{source}: numbers must be finite")
+    if isinstance(value, dict):
+        for inner in value.values():
+            _reject_non_finite(inner, source)
+    elif isinstance(value, list):
+        for inner in value:
+            _reject_non_finite(inner, source)
+
+
+def _optional(data: Mapping[str, Any], key: str, kind: type) -> Any:
+    value = data.get(key)
+    if value is None:
+        return None
+    if not isinstance(value, kind):
+        raise BadRequest(f"{key} must be a {kind.__name__}, got {value!r}")
+    return value
