@@ -210,6 +210,11 @@ DETECTION_CASES = {
         "position_mm: [1.0e+308, 1.0e+308, 300]\n",
         "position_mm: camera point",
     ),
+    "1e308 in the capture pose": (
+        "position_mm: [10, 20, 300]\n"
+        "capture: {flange_pose_ur: [1.0e+308, 1.0e+308, 0, 0, 0, 1.0e+308]}\n",
+        "capture.flange_pose_ur: the flange pose: flange distance from the robot base is 1.4",
+    ),
     "1e308 in rotvec_rad": (
         "position_mm: [10, 20, 300]\norientation: {rotvec_rad: [1.0e+308, 0, 0]}\n",
         "orientation.rotvec_rad: rotation vector is 1e+308 rad long",
