@@ -7,11 +7,17 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from hypothesis import settings
 
 from mocks.ur_controller import SimulatedController
 
 # ur_rtde's ports are fixed (30004, 29999, 30003), so every simulated controller gets its own
 # loopback address. 127.0.0.1 is left to the demo and to people running the mock by hand.
+# Hypothesis's 200 ms deadline per example fails property tests when this shared machine is busy;
+# the properties, not their speed, are what these tests check (speed is in benchmarks/).
+settings.register_profile("shared-machine", deadline=None)
+settings.load_profile("shared-machine")
+
 # ur_rtde's watchdog window in tests: 0.2 s (the production default) trips spuriously when this
 # shared 2-core machine deschedules the simulated controller for longer than that; the test of
 # the watchdog itself sets 0.2 s.

@@ -23,6 +23,7 @@ from handeye_pick.calibration import load_hand_eye
 from handeye_pick.geometry import ur_pose_to_matrix
 from handeye_pick.plot import FIGURE_SIZE_PX
 from mocks.ur_controller import SimulatedController
+from tests.conftest import TEST_WATCHDOG_S
 from tests.integration.test_pick_cli import CLI, audit_records
 
 SimFactory = Callable[..., SimulatedController]
@@ -38,7 +39,8 @@ def write_config(
 ) -> Path:
     path = tmp_path / "cell.yaml"
     path.write_text(
-        f"robot:\n  host: {host}\n  tcp_offset: {list(tcp_offset)}\n{gripper}"
+        f"robot:\n  host: {host}\n  tcp_offset: {list(tcp_offset)}\n"
+        f"  watchdog_s: {TEST_WATCHDOG_S}\n{gripper}"
         f"hand_eye:\n  mode: eye-in-hand\n  file: {HAND_EYE}\n  units: mm\n"
         "grasp:\n  approach_mm: 100\n  retreat_mm: 100\n"
         f"motion:\n  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: {GRASP_SPEED_MPS}\n"

@@ -181,7 +181,8 @@ def test_timeout_sends_stopl(sim_controller: SimFactory) -> None:
 
 def test_slow_controller_answer_ends_the_session(sim_controller: SimFactory) -> None:
     ctl = sim_controller(instant=True)
-    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, call_timeout_s=1.0) as arm:
+    # The call limit (1 s) runs out before the controller's watchdog window (2 s) would.
+    with URRtdeArm(ctl.host, watchdog_s=2.0, call_timeout_s=1.0) as arm:
         ctl.inject("slow:3")
         with pytest.raises(RobotConnectionError, match="no answer"):
             arm.has_ik_solution(arm.tcp_pose())
