@@ -1,4 +1,5 @@
-"""Simulated UR e-Series controller for tests and the demo: the real ur_rtde client talks to it.
+"""Simulated UR controller (e-Series, CB3 and PolyScope X profiles) for tests and the demo: the
+real ur_rtde client talks to it.
 
 See README.md in this folder. Never imports handeye_pick: the simulator must not share pose
 maths with the code under test.

@@ -1,22 +1,27 @@
-"""Command line: `python -m mocks.ur_controller [options]`, run from the repository root.
+"""Command line: `python -m mocks.ur_controller [options]` serves a simulated controller;
+`python -m mocks.ur_controller inject --host H FAULT` injects a fault into a running one.
 
-Prints one line starting with `ready` once RTDE (30004), dashboard (29999) and script (30003)
-listen; stops cleanly on SIGINT or SIGTERM. Poses are UR vectors (m, rad), joints in rad.
-With --serve-stdio (used by SimulatedController) it then answers JSON requests on stdin.
+Serving prints one line starting with `ready` once the profile's ports listen (RTDE 30004, and
+dashboard 29999 and script 30003 where the profile has them, admin channel 30999); stops cleanly
+on SIGINT or SIGTERM. Poses are UR vectors (m, rad), joints in rad. With --serve-stdio (used by
+SimulatedController) it then answers admin requests (admin.py) on stdin.
 """
 
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import signal
 import sys
-from dataclasses import asdict
 from types import FrameType
-from typing import Any
 
+from mocks.ur_controller import admin
 from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, Controller
+from mocks.ur_controller.faults import parse_fault
+from mocks.ur_controller.kinematics import ALL_MODELS
+from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES
+
+EXIT_NO_CONTROLLER = 3  # inject: nothing answers on the admin channel
 
 
 class _Shutdown(Exception):
@@ -28,10 +33,15 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="python -m mocks.ur_controller",
-                                     description="Simulated UR e-Series controller for ur_rtde.")
+    parser = argparse.ArgumentParser(
+        prog="python -m mocks.ur_controller",
+        description="Simulated UR controller for ur_rtde. `python -m mocks.ur_controller inject "
+                    "--help` injects a fault into a running one.")
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to serve on")
-    parser.add_argument("--model", default="ur5e", choices=("ur3e", "ur5e", "ur10e", "ur16e"))
+    parser.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
+                        help="controller generation (default %(default)s)")
+    parser.add_argument("--model", choices=sorted(ALL_MODELS),
+                        help="arm (default: ur5e, or ur5 with --profile cb3)")
     start = parser.add_mutually_exclusive_group()
     start.add_argument("--initial-q", nargs=6, type=float, metavar="Q", help="joints (rad)")
     start.add_argument("--initial-flange-pose", nargs=6, type=float, metavar="V",
@@ -42,9 +52,20 @@ def build_parser() -> argparse.ArgumentParser:
     speed.add_argument("--speed-factor", type=float, default=1.0,
                        help="run motions this many times faster than real time")
     speed.add_argument("--instant", action="store_true", help="motions end within two cycles")
+    parser.add_argument("--tracking", action="store_true",
+                        help="actual joints lag the target by 3 cycles and carry measurement "
+                             "noise (default: actual == target exactly)")
+    parser.add_argument("--seed", type=int, default=0, help="noise seed for --tracking")
     parser.add_argument("--record", metavar="FILE", help="append commands as JSON lines")
+    parser.add_argument("--record-motions", metavar="FILE",
+                        help="append each motion's start, end and time moving as JSON lines")
     parser.add_argument("--inject", action="append", default=[], metavar="FAULT@WHEN",
                         help="fault, e.g. protective-stop@move:2:0.5 (repeatable)")
+    parser.add_argument("--part-width-mm", type=float, metavar="W",
+                        help="a part W mm wide waits at the gripper (default: none)")
+    parser.add_argument("--feedback-input", nargs=2, type=int, metavar=("DO", "DI"),
+                        help="digital input bit DI reads true while output bit DO is on and "
+                             "the part is present (bits of actual_digital_*_bits, 0-17)")
     parser.add_argument("--no-remote-control", action="store_true",
                         help="start in local control (dashboard says remote control is off)")
     parser.add_argument("--allow-non-loopback", action="store_true",
@@ -60,36 +81,47 @@ def _controller(args: argparse.Namespace) -> Controller:
         initial_flange_pose=args.initial_flange_pose, tcp_offset=args.tcp_offset,
         speed_factor=args.speed_factor, instant=args.instant, record_path=args.record,
         inject=args.inject, remote_control=not args.no_remote_control,
-        allow_non_loopback=args.allow_non_loopback,
+        allow_non_loopback=args.allow_non_loopback, profile=args.profile,
+        tracking=args.tracking, seed=args.seed, motion_record_path=args.record_motions,
+        part_width_mm=args.part_width_mm, feedback_input=args.feedback_input,
     )
-
-
-def _answer(ctl: Controller, request: dict[str, Any]) -> Any:
-    op = request.get("op")
-    if op == "snapshot":
-        return asdict(ctl.snapshot())
-    if op == "commands":
-        return ctl.commands
-    if op == "inject":
-        ctl.inject(str(request["spec"]))
-        return None
-    if op == "set_remote_control":
-        ctl.set_remote_control(bool(request["enabled"]))
-        return None
-    raise ValueError(f"unknown request op {op!r}")
 
 
 def _serve_stdio(ctl: Controller) -> None:
     """Answer one JSON line per request line until stdin closes."""
     for line in sys.stdin:
-        try:
-            reply = {"ok": True, "result": _answer(ctl, json.loads(line))}
-        except (ValueError, KeyError) as exc:
-            reply = {"ok": False, "error": str(exc)}
-        print(json.dumps(reply), flush=True)
+        print(admin.serve_line(ctl, line), flush=True)
+
+
+def inject_main(argv: list[str]) -> int:
+    """`inject --host H FAULT`: 0 injected, 2 bad arguments or fault, 3 no controller answers."""
+    parser = argparse.ArgumentParser(
+        prog="python -m mocks.ur_controller inject",
+        description="Inject a fault into a running simulated controller (admin channel on "
+                    f"port {admin.ADMIN_PORT} of its loopback address).")
+    parser.add_argument("--host", default="127.0.0.1", help="the controller's address")
+    parser.add_argument("fault", metavar="FAULT[@WHEN]",
+                        help="e.g. protective-stop, refuse-move, stall:3, "
+                             "protective-stop@move:2:0.5 (see the simulator's README)")
+    args = parser.parse_args(argv)
+    try:
+        parse_fault(args.fault)
+        admin.request(args.host, {"op": "inject", "spec": args.fault})
+    except ValueError as exc:
+        print(f"error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:
+        print(f"error: no simulated controller answers on {args.host}:{admin.ADMIN_PORT} "
+              f"({exc})", file=sys.stderr)
+        return EXIT_NO_CONTROLLER
+    print(f"injected {args.fault} into {args.host}")
+    return 0
 
 
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["inject"]:
+        return inject_main(argv[1:])
     args = build_parser().parse_args(argv)
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s ur-sim %(levelname)s %(message)s")
@@ -102,8 +134,9 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, _on_signal)
     try:
         ctl.start()
-        print(f"ready host={ctl.host} model={ctl.model_name} rtde=30004 dashboard=29999 "
-              f"script=30003", flush=True)
+        ports = " ".join(f"{name}={port}" for name, port in ctl.ports.items())
+        print(f"ready host={ctl.host} profile={ctl.profile.name} "
+              f"version={ctl.profile.version_text} model={ctl.model_name} {ports}", flush=True)
         if args.serve_stdio:
             _serve_stdio(ctl)
         else:

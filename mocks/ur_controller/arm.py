@@ -2,8 +2,12 @@
 
 Frames: `base` is the controller's base frame, `flange` the tool flange, `tcp` the flange moved by
 the active TCP offset (T_flange_tcp, set on the pendant or by setTcp). Poses are UR vectors
-[x, y, z, rx, ry, rz] (m, rad); joints q are 6 angles (rad). Tracking is perfect: target and
-actual values are the same.
+[x, y, z, rx, ry, rz] (m, rad); joints q are 6 angles (rad).
+
+Target and actual: `q` is the target (the trajectory the controller commands), `actual_q` what the
+encoders report. Without `tracking` they are the same array. With it the actual joints follow the
+target TRACKING_LAG_CYCLES control cycles late and carry Gaussian measurement noise of
+JOINT_NOISE_RAD (standard deviation), see README.md for the magnitudes and their sources.
 
 moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal profile over the
 translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
@@ -29,6 +33,14 @@ Vector = NDArray[np.float64]
 # The TCP must move at least this far (m) for moveL's speed to mean m/s; below it, rad/s.
 _MIN_TRANSLATION_M = 1e-6
 
+TRACKING_LAG_CYCLES = 3
+"""With tracking, the actual joints are where the target was this many control cycles ago."""
+JOINT_NOISE_RAD = 1e-5
+"""With tracking, standard deviation of the measurement noise on each actual joint angle (about
+0.01 mm at the TCP of an 0.85 m arm, a third of the UR5e's published +-0.03 mm repeatability)."""
+STEADY_CYCLES = 2
+"""is_steady(): the target has not moved for this many cycles and the actual joints caught up."""
+
 
 class UnreachableError(Exception):
     """A motion target or a point on the way has no joint solution within the limits."""
@@ -44,6 +56,8 @@ class Motion:
     """
 
     index: int
+    kind: str  # the command that started it: moveL, moveJ, moveL_FK, moveJ_IK
+    started_s: float  # controller time
     linear: bool
     distance: float
     speed: float
@@ -64,36 +78,88 @@ class Motion:
         """Fraction of the move's planned duration elapsed, 0..1 (for move:K:FRACTION)."""
         return 1.0 if self.duration_s <= 0.0 else min(1.0, self.elapsed_s / self.duration_s)
 
+    def planned(self, t: float) -> tuple[float, float]:
+        """(path fraction, path speed) of the unstopped trapezoid at motion time t."""
+        if t >= self.duration_s:
+            return 1.0, 0.0
+        peak = min(self.speed, math.sqrt(self.distance * self.accel))
+        speed = max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
+        return kin.trapezoid_fraction(t, self.distance, self.speed, self.accel), speed
+
+    @property
+    def braking(self) -> bool:
+        """A stop has begun (its braking starts at motion time stop_at_s)."""
+        return self.stop_at_s is not None and self.elapsed_s > self.stop_at_s
+
     def path_fraction(self) -> float:
         """Fraction of the path covered at elapsed_s, 0..1."""
-        if self.stop_at_s is None:
-            if self.elapsed_s >= self.duration_s:
-                return 1.0
-            return kin.trapezoid_fraction(self.elapsed_s, self.distance, self.speed, self.accel)
+        if self.stop_at_s is None or self.elapsed_s <= self.stop_at_s:
+            return self.planned(self.elapsed_s)[0]
         t = min(self.elapsed_s - self.stop_at_s, self.stop_speed / self.stop_decel)
         covered = self.stop_speed * t - 0.5 * self.stop_decel * t * t
         return min(1.0, self.stop_from + covered / self.distance)
 
     def path_speed(self) -> float:
         """Speed along the path at elapsed_s (motion units per second of motion time)."""
-        if self.stop_at_s is None:
-            peak = min(self.speed, math.sqrt(self.distance * self.accel))
-            t = self.elapsed_s
-            return max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
+        if self.stop_at_s is None or self.elapsed_s <= self.stop_at_s:
+            return self.planned(self.elapsed_s)[1]
         return max(0.0, self.stop_speed - self.stop_decel * (self.elapsed_s - self.stop_at_s))
+
+    def stop(self, at_s: float, decel: float) -> None:
+        """Brake at `decel` from motion time `at_s` on (which may lie a cycle ahead)."""
+        self.stop_from, self.stop_speed = self.planned(at_s)
+        self.stop_decel = decel
+        self.stop_at_s = at_s
+
+    def end_time(self) -> float:
+        """Motion time at which the arm comes to rest: the trapezoid's end, or a stop's."""
+        if self.stop_at_s is None:
+            return self.duration_s
+        v, a = self.stop_speed, self.stop_decel
+        remaining = (1.0 - self.stop_from) * self.distance
+        if v * v / (2.0 * a) <= remaining:
+            return self.stop_at_s + v / a
+        return self.stop_at_s + (v - math.sqrt(v * v - 2.0 * a * remaining)) / a  # target first
 
     @property
     def finished(self) -> bool:
-        if self.stop_at_s is None:
-            return self.elapsed_s >= self.duration_s
-        return self.path_speed() <= 0.0 or self.path_fraction() >= 1.0
+        return self.elapsed_s >= self.end_time()
+
+
+@dataclass(frozen=True)
+class MotionEnd:
+    """How and when (controller time) a motion ended: `reason` is "reached" (at its target),
+    "stopped" (braked to rest by stopL/stopJ/speedStop) or why it was halted at once."""
+
+    motion: Motion
+    end_s: float
+    reason: str
+    detail: dict[str, float] | None = None  # watchdog stops: last update time, minimum frequency
+
+
+class Tracking:
+    """Actual joints: the target TRACKING_LAG_CYCLES cycles late, plus measurement noise."""
+
+    def __init__(self, q: Vector, seed: int):
+        self._history = [q.copy() for _ in range(TRACKING_LAG_CYCLES + 1)]
+        self._rng = np.random.default_rng(seed)
+
+    def update(self, q_target: Vector) -> tuple[Vector, Vector]:
+        """One cycle: returns (servo position, measured position), both in rad."""
+        self._history = [*self._history[1:], q_target.copy()]
+        servo = self._history[0]
+        return servo, servo + self._rng.normal(0.0, JOINT_NOISE_RAD, 6)
 
 
 class Arm:
-    """Joint state and motion model of one simulated UR arm (see module docstring)."""
+    """Joint state and motion model of one simulated UR arm (see module docstring).
+
+    The controller calls `advance` once per control cycle with the cycle's controller time; motions
+    that end are queued in `ended` for the controller's motion record.
+    """
 
     def __init__(self, model: kin.URModel, q: Vector, tcp_offset: Vector, speed_factor: float,
-                 instant: bool):
+                 instant: bool, cycle_s: float, tracking_seed: int | None = None):
         if not kin.within_limits(model, q):
             raise ValueError(f"initial joints {q.tolist()} are outside the {model.name} limits")
         self.model = model
@@ -103,25 +169,51 @@ class Arm:
         self.speed_factor = speed_factor
         self.speed_slider = 1.0  # pendant speed slider (0..1), set over RTDE by the IO interface
         self.instant = instant
+        self.cycle_s = cycle_s  # control period
         self.payload_kg = 0.0
         self.payload_cog_m = np.zeros(3)
+        self.payload_inertia = np.zeros(6)  # Ixx, Iyy, Izz, Ixy, Ixz, Iyz (kg m^2)
         self.motion: Motion | None = None
         self.motion_count = 0
+        self.ended: list[MotionEnd] = []
+        self.now_s = 0.0  # controller time of the current cycle
+        self._advanced_s = 0.0  # controller time of the last advance
+        self._tracking = None if tracking_seed is None else Tracking(self.q, tracking_seed)
+        self._servo_q = self.q  # where the joints are, noise-free (lags the target with tracking)
+        self._still_cycles = STEADY_CYCLES
+        self.actual_q = self.q
+        self.actual_qd = self.qd
         self._update_poses()
+        self._update_actual()
         self.tcp_speed = np.zeros(6)
+        self.elbow_velocity = np.zeros(3)
 
     # --- derived poses ---------------------------------------------------------------------
 
     def _update_poses(self) -> None:
+        """Target poses from the target joints."""
         self.T_base_flange = kin.forward(self.model, self.q)
         self.T_base_tcp = kin.tcp_from_flange(self.T_base_flange, self.tcp_offset)
         self.flange_pose = kin.matrix_to_pose(self.T_base_flange)
         self.tcp_pose = kin.matrix_to_pose(self.T_base_tcp)
 
+    def _update_actual(self) -> None:
+        """Actual poses and elbow from the measured joints (the target's without tracking)."""
+        if self._tracking is None:
+            self.actual_flange_pose = self.flange_pose
+            self.actual_tcp_pose = self.tcp_pose
+        else:
+            T_base_flange = kin.forward(self.model, self.actual_q)
+            self.actual_flange_pose = kin.matrix_to_pose(T_base_flange)
+            self.actual_tcp_pose = kin.matrix_to_pose(
+                kin.tcp_from_flange(T_base_flange, self.tcp_offset))
+        self.elbow_position = kin.elbow_position(self.model, self.actual_q)
+
     def set_tcp(self, tcp_offset: Vector) -> None:
         """Make `tcp_offset` (T_flange_tcp as a UR vector) the active TCP."""
         self.tcp_offset = tcp_offset.astype(np.float64)
         self._update_poses()
+        self._update_actual()
 
     def tcp_from_q(self, q: Vector, tcp_offset: Vector | None = None) -> Vector:
         """T_base_tcp at joints q, with the active TCP unless one is given."""
@@ -138,9 +230,16 @@ class Arm:
         T_base_flange = kin.flange_from_tcp(kin.pose_to_matrix(tcp_pose), self.tcp_offset)
         return kin.reachable(self.model, T_base_flange)
 
+    @property
+    def steady(self) -> bool:
+        """URScript is_steady(): fully at rest, i.e. no motion, the target has not moved for
+        STEADY_CYCLES cycles and the actual joints have caught up with it."""
+        return (self.motion is None and self._still_cycles >= STEADY_CYCLES
+                and np.array_equal(self._servo_q, self.q))
+
     # --- motions ---------------------------------------------------------------------------
 
-    def move_linear(self, tcp_pose: Vector, speed: float, accel: float) -> Motion:
+    def move_linear(self, tcp_pose: Vector, speed: float, accel: float, kind: str) -> Motion:
         """Start a straight-line TCP move; raises UnreachableError if the target is unreachable."""
         q_target = self.ik_tcp(tcp_pose)
         if q_target is None:
@@ -152,64 +251,92 @@ class Arm:
         else:
             R_rel = self.T_base_tcp[:3, :3].T @ T_target[:3, :3]
             distance = float(np.linalg.norm(Rotation.from_matrix(R_rel).as_rotvec()))
-        return self._start(True, distance, speed, accel, q_target, T_target)
+        return self._start(kind, True, distance, speed, accel, q_target, T_target)
 
-    def move_joint(self, q_target: Vector, speed: float, accel: float) -> Motion:
+    def move_joint(self, q_target: Vector, speed: float, accel: float, kind: str) -> Motion:
         """Start a joint-space move; raises UnreachableError if q_target is outside the limits."""
         if not kin.within_limits(self.model, q_target):
             raise UnreachableError(f"moveJ target {np.round(q_target, 6).tolist()} is outside "
                                    f"the {self.model.name} joint limits")
         distance = float(np.max(np.abs(q_target - self.q)))
-        return self._start(False, distance, speed, accel, q_target, self.tcp_from_q(q_target))
+        return self._start(kind, False, distance, speed, accel, q_target,
+                           self.tcp_from_q(q_target))
 
-    def _start(self, linear: bool, distance: float, speed: float, accel: float, q_target: Vector,
-               T_target: Vector) -> Motion:
+    def _start(self, kind: str, linear: bool, distance: float, speed: float, accel: float,
+               q_target: Vector, T_target: Vector) -> Motion:
         if speed <= 0.0 or accel <= 0.0:
             raise UnreachableError(f"speed {speed} and acceleration {accel} must be > 0 to move")
+        self.halt("replaced by a new move")
         self.motion_count += 1
         self.motion = Motion(
-            index=self.motion_count, linear=linear, distance=distance, speed=speed, accel=accel,
+            index=self.motion_count, kind=kind, started_s=self.now_s, linear=linear,
+            distance=distance, speed=speed, accel=accel,
             duration_s=kin.trapezoid(distance, speed, accel), q_start=self.q.copy(),
             q_target=q_target, T_base_tcp_start=self.T_base_tcp.copy(), T_base_tcp_target=T_target,
         )
         return self.motion
 
-    def halt(self) -> None:
-        """Stop where the arm is now."""
+    def halt(self, reason: str, detail: dict[str, float] | None = None,
+             at_s: float | None = None) -> None:
+        """Stop where the arm is now; `reason`, `detail` and the controller time the stop took
+        effect (`at_s`, default now) go to the motion record."""
+        if self.motion is not None:
+            end_s = self.now_s if at_s is None else max(at_s, self.motion.started_s)
+            self._rest(MotionEnd(self.motion, end_s, reason, detail))
+
+    def _rest(self, end: MotionEnd) -> None:
+        self.ended.append(end)
         self.motion = None
         self.qd = np.zeros(6)
         self.tcp_speed = np.zeros(6)
 
     def decelerate(self, decel: float) -> Motion | None:
-        """Brake along the path at `decel` (the motion's units per s^2), as stopl/stopj do.
+        """Brake along the path at `decel` (the motion's units per s^2), as stopl/stopj do,
+        from this cycle's controller time on.
 
         Returns the motion while it is still braking, None when the arm is already still.
         """
         motion = self.motion
         if motion is None:
             return None
-        speed = motion.path_speed()
-        if self.instant or decel <= 0.0 or speed <= 0.0:
-            self.halt()
+        # The motion was last advanced to the previous cycle; the braking begins at this one.
+        at_s = motion.elapsed_s + self._motion_time(self.now_s - self._advanced_s, motion)
+        if self.instant or decel <= 0.0 or motion.planned(at_s)[1] <= 0.0:
+            self.halt("stopped")
             return None
-        motion.stop_from = motion.path_fraction()
-        motion.stop_speed = speed
-        motion.stop_decel = decel
-        motion.stop_at_s = motion.elapsed_s
+        motion.stop(at_s, decel)
         return motion
 
-    def advance(self, dt_s: float) -> Motion | None:
-        """Advance the motion by dt_s of wall time; returns the motion advanced (None if idle).
+    def _motion_time(self, wall_s: float, motion: Motion) -> float:
+        """Motion time in `wall_s` of controller time: never before the motion started."""
+        wall_s = min(wall_s, self.now_s - motion.started_s)
+        return max(0.0, wall_s) * self.speed_factor * self.speed_slider
+
+    def advance(self, dt_s: float, now_s: float) -> Motion | None:
+        """One control cycle of dt_s wall time ending at controller time now_s; returns the
+        motion advanced (None if idle). A motion moves from the cycle after the one that
+        started it.
 
         Raises UnreachableError (and halts) when a point on a linear path has no IK solution.
         """
+        self.now_s = now_s
         motion = self.motion
-        if motion is None:
-            return None
+        q_before = self.q
+        try:
+            if motion is not None:
+                self._advance_motion(motion, dt_s)
+        finally:
+            self._advanced_s = now_s
+            self._still_cycles = 0 if self.motion is not None or not np.array_equal(
+                self.q, q_before) else self._still_cycles + 1
+            self._track(dt_s)
+        return motion
+
+    def _advance_motion(self, motion: Motion, dt_s: float) -> None:
         if self.instant:
             motion.elapsed_s += motion.duration_s / 2  # done within two cycles
         else:
-            motion.elapsed_s += dt_s * self.speed_factor * self.speed_slider
+            motion.elapsed_s += self._motion_time(dt_s, motion)
         s = motion.path_fraction()
         q_new = motion.q_target if s >= 1.0 else self._q_along(motion, s)
         T_tcp_before = self.T_base_tcp
@@ -220,8 +347,35 @@ class Arm:
             self.qd = (self.q - q_before) / dt_s
             self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
         if motion.finished:
-            self.halt()
-        return motion
+            self._end(motion, "stopped" if motion.braking else "reached")
+
+    def _end(self, motion: Motion, reason: str) -> None:
+        """The motion came to rest this cycle: recorded at the first cycle at or after the
+        exact moment (a late cycle that overshot does not lengthen it)."""
+        rate = self.speed_factor * self.speed_slider
+        end_s = self.now_s
+        if not self.instant and rate > 0.0:
+            exact_s = self.now_s - (motion.elapsed_s - motion.end_time()) / rate
+            end_s = max(motion.started_s, math.ceil(exact_s / self.cycle_s - 1e-6) * self.cycle_s)
+        self._rest(MotionEnd(motion, min(end_s, self.now_s), reason))
+
+    def _track(self, dt_s: float) -> None:
+        """Measured joints, poses, elbow and speeds for this cycle."""
+        servo_before = self._servo_q
+        elbow_before = self.elbow_position
+        if self._tracking is None:
+            if self.q is servo_before:  # an idle arm: nothing to recompute (most cycles)
+                self.actual_qd = self.qd
+                self.elbow_velocity = np.zeros(3)
+                return
+            self._servo_q = self.actual_q = self.q
+            self.actual_qd = self.qd
+        else:
+            self._servo_q, self.actual_q = self._tracking.update(self.q)
+            self.actual_qd = (self._servo_q - servo_before) / dt_s if dt_s > 0 else np.zeros(6)
+        self._update_actual()
+        if dt_s > 0:
+            self.elbow_velocity = (self.elbow_position - elbow_before) / dt_s
 
     def _q_along(self, motion: Motion, s: float) -> Vector:
         if not motion.linear:
@@ -230,7 +384,7 @@ class Arm:
         T_base_flange = kin.flange_from_tcp(T_base_tcp, self.tcp_offset)
         q = kin.inverse(self.model, T_base_flange, self.q)
         if q is None:
-            self.halt()
+            self.halt(f"no IK solution {s:.0%} of the way (protective stop)")
             raise UnreachableError(
                 f"moveL path point {kin.matrix_to_pose(T_base_tcp).round(6).tolist()} "
                 f"({s:.0%} of the way) has no IK solution within the joint limits"

@@ -1,9 +1,16 @@
-"""Controller: the engine of the simulated UR e-Series controller, on one loopback address.
+"""Controller: the engine of the simulated UR controller, on one loopback address.
 
-Serves RTDE (30004), dashboard (29999) and the script port (30003) so the unmodified ur_rtde
-1.6.5 client connects as to a real robot. One 500 Hz control-loop thread owns the state: each
-cycle it runs the control script's main-loop pass (the client's inputs as last written), advances
-the motion, fires due faults and publishes the outputs that RTDE sender threads stream.
+Serves RTDE (30004), dashboard (29999) and the script port (30003) as the profile has them (see
+profiles.py), so the unmodified ur_rtde 1.6.5 client connects as to a real robot, and the admin
+channel (admin.py) for run-time faults. One control-loop thread (500 Hz e-Series, 125 Hz CB3) owns
+the state: each cycle it runs the control script's main-loop pass (the client's inputs as last
+written), advances the motion, fires due faults and publishes the outputs that RTDE sender
+threads stream.
+
+Controller time: cycle N is stamped N control periods after start, with N taken from the wall
+clock. A cycle that comes late (the machine was busy) advances the motion by the whole time
+since the last one and skips the missed stamps, as a real controller's RTDE drops packages:
+stamps are never compressed and never lie.
 
 Poses are UR vectors [x, y, z, rx, ry, rz] in metres and radians; joints in radians.
 """
@@ -22,17 +29,21 @@ from typing import Any
 import numpy as np
 
 from mocks.ur_controller import kinematics as kin
+from mocks.ur_controller.admin import AdminServer
 from mocks.ur_controller.arm import Arm, UnreachableError, default_q
 from mocks.ur_controller.dashboard import DashboardServer
 from mocks.ur_controller.faults import FaultSpec, parse_fault
+from mocks.ur_controller.gripper import Robotiq2F, RobotiqServer, answer
+from mocks.ur_controller.net import Listener
+from mocks.ur_controller.outputs import Io, Modes, OutputTable
+from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES, Profile
 from mocks.ur_controller.program import ControlScript, Registers
 from mocks.ur_controller.record import CommandRecord
-from mocks.ur_controller.rtde import CYCLE_HZ, OUTPUT_TYPES, RtdeServer
+from mocks.ur_controller.rtde import RtdeServer
 from mocks.ur_controller.script_port import ScriptPort, register_offsets
 
 log = logging.getLogger("mocks.ur_controller")
 
-CYCLE_S = 1.0 / CYCLE_HZ  # e-Series control cycle, 2 ms
 EXIT_CANNOT_LISTEN = 3  # command-line exit status: a port is taken or the address is not local
 
 ROBOT_MODE_POWER_OFF = 3
@@ -44,26 +55,18 @@ SAFETY_SAFEGUARD_STOP = 5
 SAFETY_ROBOT_EMERGENCY_STOP = 7
 RUNTIME_STOPPED = 1
 RUNTIME_PLAYING = 2
+RUNTIME_PAUSING = 3
 RUNTIME_PAUSED = 4
-# safety_status_bits: 0 normal, 2 protective stopped, 4 safeguard stopped, 6 robot e-stop,
-# 7 emergency stopped, 10 stopped due to safety.
-_SAFETY_BITS = {
-    SAFETY_NORMAL: 1 << 0,
-    SAFETY_PROTECTIVE_STOP: (1 << 2) | (1 << 10),
-    SAFETY_SAFEGUARD_STOP: (1 << 4) | (1 << 10),
-    SAFETY_ROBOT_EMERGENCY_STOP: (1 << 6) | (1 << 7) | (1 << 10),
-}
-_JOINT_MODE_RUNNING = 253
-_JOINT_MODE_POWER_OFF = 239
 
 
 @dataclass(frozen=True)
 class ControllerSnapshot:
     """The controller's state at one instant (units: rad, m, kg, s)."""
 
-    q: tuple[float, ...]
-    flange_pose: tuple[float, ...]
-    tcp_pose: tuple[float, ...]  # includes tcp_offset
+    q: tuple[float, ...]  # target joints
+    flange_pose: tuple[float, ...]  # target
+    tcp_pose: tuple[float, ...]  # target, includes tcp_offset
+    actual_tcp_pose: tuple[float, ...]  # as RTDE reports it (== tcp_pose without tracking)
     tcp_offset: tuple[float, ...]
     robot_mode: int  # 7 RUNNING
     safety_mode: int  # 1 NORMAL, 3 PROTECTIVE_STOP, 5 SAFEGUARD_STOP, 7 ROBOT_EMERGENCY_STOP
@@ -71,11 +74,18 @@ class ControllerSnapshot:
     program_running: bool
     remote_control: bool
     moving: bool
+    steady: bool  # URScript is_steady()
     standard_digital_out: int
     tool_digital_out: int
     configurable_digital_out: int
     payload_kg: float
-    time_s: float
+    payload_cog: tuple[float, ...]  # m, tool flange frame
+    digital_inputs: int  # actual_digital_input_bits
+    gripper_position: int  # Robotiq POS, 0 open .. 255 closed
+    gripper_object: int  # Robotiq OBJ
+    part_present: bool  # the scripted part is between the fingers / at the gripper
+    time_s: float  # controller time
+    profile: str
 
 
 def _vector(values: Sequence[float], what: str) -> np.ndarray[Any, np.dtype[np.float64]]:
@@ -95,7 +105,7 @@ class Controller:
     def __init__(
         self,
         host: str = "127.0.0.1",
-        model: str = "ur5e",
+        model: str | None = None,
         initial_q: Sequence[float] | None = None,
         initial_flange_pose: Sequence[float] | None = None,
         tcp_offset: Sequence[float] = (0, 0, 0, 0, 0, 0),
@@ -105,18 +115,32 @@ class Controller:
         inject: Iterable[str] = (),
         remote_control: bool = True,
         allow_non_loopback: bool = False,
+        profile: str = DEFAULT_PROFILE,
+        tracking: bool = False,
+        seed: int = 0,
+        motion_record_path: str | Path | None = None,
+        part_width_mm: float | None = None,
+        feedback_input: Sequence[int] | None = None,
     ):
         if not ipaddress.ip_address(host).is_loopback and not allow_non_loopback:
             raise ValueError(f"Controller: host {host!r} is not a loopback address; "
-                             f"pass allow_non_loopback=True to serve on it")
-        if model not in kin.MODELS:
-            raise ValueError(f"Controller: model must be one of {sorted(kin.MODELS)}, "
-                             f"got {model!r}")
+                             f"pass --allow-non-loopback to serve on it")
+        if profile not in PROFILES:
+            raise ValueError(f"Controller: profile must be one of {sorted(PROFILES)}, "
+                             f"got {profile!r}")
+        self.profile: Profile = PROFILES[profile]
+        model = self.profile.default_model if model is None else model
+        if model not in self.profile.models:
+            raise ValueError(f"Controller: model must be one of {list(self.profile.models)} "
+                             f"for the {profile} profile, got {model!r}")
         if not speed_factor > 0:
             raise ValueError(f"Controller: speed_factor must be > 0, got {speed_factor}")
+        if tracking and instant:
+            raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
+                             "instant move ends at full speed, far ahead of a lagging arm")
         if initial_q is not None and initial_flange_pose is not None:
             raise ValueError("Controller: give initial_q or initial_flange_pose, not both")
-        ur_model = kin.MODELS[model]
+        ur_model = kin.ALL_MODELS[model]
         q = default_q()
         if initial_q is not None:
             q = _vector(initial_q, "initial_q")
@@ -130,9 +154,14 @@ class Controller:
         self.host = host
         self.model_name = model
         self.lock = threading.RLock()
-        self.arm = Arm(ur_model, q, _vector(tcp_offset, "tcp_offset"), speed_factor, instant)
+        self.arm = Arm(ur_model, q, _vector(tcp_offset, "tcp_offset"), speed_factor, instant,
+                       1.0 / self.profile.cycle_hz, tracking_seed=seed if tracking else None)
         self.registers = Registers()
+        self.gripper = Robotiq2F(time_scale=speed_factor, instant=instant,
+                                 part_width_mm=_width(part_width_mm))
+        self._feedback = _feedback_bits(feedback_input)
         self._record = CommandRecord(record_path)
+        self._motions = CommandRecord(motion_record_path)
         self._faults = [parse_fault(spec) for spec in inject]
         self._script: ControlScript | None = None
         self._paused = False
@@ -140,30 +169,41 @@ class Controller:
         self._safety_mode = SAFETY_NORMAL
         self._remote_control = remote_control
         self._refuse_next_start = False
+        self._refuse_next_move = False
         self._stall_until_s = 0.0
         self._slow_s = 0.0
         self._standard_do = 0
         self._configurable_do = 0
         self._tool_do = 0
         self._analog_out = [0.0, 0.0]
-        self._start_s = time.monotonic()
+        self._analog_io_types = 0
+        self._cycle_s = 1.0 / self.profile.cycle_hz
         self._time_s = 0.0
+        self._output_table = OutputTable(self.profile.output_types)
         self._outputs: Mapping[str, object] = {}
         self._stopping = threading.Event()
         self._loop: threading.Thread | None = None
-        self._rtde = RtdeServer(host, self)
-        self._dashboard = DashboardServer(host, self)
-        self._script_port = ScriptPort(host, self.run_program)
-        self._listeners = (self._rtde.listener, self._dashboard.listener,
-                           self._script_port.listener)
+        self._rtde = RtdeServer(host, self, self.profile)
+        listeners: list[Listener] = [self._rtde.listener]
+        if self.profile.dashboard:
+            listeners.append(DashboardServer(host, self).listener)
+        if self.profile.script_port:
+            listeners.append(ScriptPort(host, self.run_program).listener)
+        listeners.append(RobotiqServer(host, self).listener)
+        if ipaddress.ip_address(host).is_loopback:  # never offer the admin channel off the box
+            listeners.append(AdminServer(host, self).listener)
+        self._listeners = tuple(listeners)
         with self.lock:
             self._publish()
 
     # --- lifetime ---------------------------------------------------------------------------
 
     def start(self) -> Controller:
-        """Start the control loop and listen on 30004, 29999 and 30003; returns when listening."""
+        """Start the control loop and listen on the profile's ports; returns when listening."""
         with self.lock:
+            if self.profile.control_script_running:
+                self._start_script(0, "started from the pendant (profile " +
+                                   self.profile.name + ")")
             for fault in [f for f in self._faults if f.move_index is None]:
                 self._faults.remove(fault)
                 self._apply(fault)
@@ -185,6 +225,7 @@ class Controller:
         if self._loop is not None:
             self._loop.join(timeout=2.0)
         self._record.close()
+        self._motions.close()
 
     def __enter__(self) -> Controller:
         return self.start()
@@ -195,9 +236,19 @@ class Controller:
     # --- public API -------------------------------------------------------------------------
 
     @property
+    def ports(self) -> dict[str, int]:
+        """The ports this controller serves, by name (rtde, dashboard, script, admin)."""
+        return {listener.name: listener.port for listener in self._listeners}
+
+    @property
     def commands(self) -> list[dict[str, Any]]:
-        """A copy of the command record: one dict per motion or stop command, in order."""
+        """A copy of the command record: one dict per motion, stop or payload command, in order."""
         return self._record.entries()
+
+    @property
+    def motions(self) -> list[dict[str, Any]]:
+        """A copy of the motion record: one dict per motion once it has ended, in order."""
+        return self._motions.entries()
 
     def inject(self, spec: str) -> None:
         """Inject a fault, `FAULT@WHEN` (`@now` implied); see faults.py for the names."""
@@ -208,7 +259,20 @@ class Controller:
             else:
                 self._faults.append(fault)
 
+    def set_part(self, width_mm: float | None) -> None:
+        """Script the part: present with this width (mm) at the gripper, or absent (None)."""
+        with self.lock:
+            self.gripper.part_width_mm = _width(width_mm)
+
+    def gripper_request(self, request: str) -> str | None:
+        """One line on the Robotiq socket: the reply, or None when the gripper is silent."""
+        with self.lock:
+            return answer(self.gripper, request)
+
     def set_remote_control(self, enabled: bool) -> None:
+        """Switch remote/local control, as on the pendant; ValueError on a profile without it."""
+        if not self.profile.remote_control_mode:
+            raise ValueError(f"the {self.profile.name} profile has no remote control mode")
         with self.lock:
             self._remote_control = enabled
 
@@ -219,6 +283,7 @@ class Controller:
                 q=tuple(arm.q.tolist()),
                 flange_pose=tuple(arm.flange_pose.tolist()),
                 tcp_pose=tuple(arm.tcp_pose.tolist()),
+                actual_tcp_pose=tuple(arm.actual_tcp_pose.tolist()),
                 tcp_offset=tuple(arm.tcp_offset.tolist()),
                 robot_mode=self._robot_mode,
                 safety_mode=self._safety_mode,
@@ -226,11 +291,18 @@ class Controller:
                 program_running=self._runtime_state() == RUNTIME_PLAYING,
                 remote_control=self._remote_control,
                 moving=arm.motion is not None,
+                steady=arm.steady,
                 standard_digital_out=self._standard_do,
                 tool_digital_out=self._tool_do,
                 configurable_digital_out=self._configurable_do,
                 payload_kg=arm.payload_kg,
+                payload_cog=tuple(arm.payload_cog_m.tolist()),
+                digital_inputs=self._digital_input_bits(),
+                gripper_position=self.gripper.get("POS"),
+                gripper_object=self.gripper.obj,
+                part_present=self.gripper.part_width_mm is not None,
                 time_s=self._time_s,
+                profile=self.profile.name,
             )
 
     # --- program control (script port, dashboard) -------------------------------------------
@@ -246,17 +318,23 @@ class Controller:
             if refusal:
                 log.warning("script port: not starting rtde_control: %s", refusal)
                 return
-            if self._script is not None:
-                self._script.stop("replaced by a new program on the script port")
-            self._paused = False
-            self._script = ControlScript(self.registers, self.arm, self._record,
-                                         register_offsets(program), self._protective_stop,
-                                         self._time_s)
-            self._script.ack_delay_s = self._slow_s
-            log.info("rtde_control program started")
+            self._start_script(register_offsets(program), "received on the script port")
+
+    def _start_script(self, register_offset: int, how: str) -> None:
+        if self._script is not None:
+            self._script.stop("replaced by a new program")
+        self._paused = False
+        self._script = ControlScript(self.registers, self.arm, self._record, register_offset,
+                                     self._protective_stop, self._take_refused_move, self._time_s)
+        self._script.ack_delay_s = self._slow_s
+        log.info("rtde_control program started (%s)", how)
+
+    def _take_refused_move(self) -> bool:
+        refuse, self._refuse_next_move = self._refuse_next_move, False
+        return refuse
 
     def _start_refusal(self) -> str:
-        if not self._remote_control:
+        if self.profile.remote_control_mode and not self._remote_control:
             return "the robot is in local control"
         if self._robot_mode != ROBOT_MODE_RUNNING:
             return f"robot mode is {self._robot_mode}, expected 7 (RUNNING)"
@@ -278,7 +356,7 @@ class Controller:
             if self._runtime_state() != RUNTIME_PLAYING:
                 return False
             self._paused = True
-            self.arm.halt()
+            self.arm.halt("program paused")
             return True
 
     def resume_program(self) -> bool:
@@ -333,7 +411,7 @@ class Controller:
     def _protective_stop(self, reason: str) -> None:
         log.warning("protective stop: %s", reason)
         self._safety_mode = SAFETY_PROTECTIVE_STOP
-        self.arm.halt()
+        self.arm.halt(f"protective stop: {reason}")
 
     def _apply(self, fault: FaultSpec) -> None:
         log.warning("fault injected: %s", fault)
@@ -346,7 +424,7 @@ class Controller:
         elif fault.name == "safeguard-stop":
             self._safety_mode = SAFETY_SAFEGUARD_STOP
             self._paused = self._script is not None and self._script.running
-            self.arm.halt()
+            self.arm.halt("safeguard stop")
         elif fault.name == "drop-connection":
             for listener in self._listeners:
                 listener.drop_clients()
@@ -358,6 +436,14 @@ class Controller:
             self._remote_control = False
         elif fault.name == "refuse-start":
             self._refuse_next_start = True
+        elif fault.name == "refuse-move":
+            self._refuse_next_move = True
+        elif fault.name == "gripper-fault":
+            self.gripper.flt = fault.code or 0
+        elif fault.name == "gripper-silent":
+            self.gripper.silent = True
+        elif fault.name == "gripper-drop":
+            self.gripper.drop_part()
         elif fault.name == "slow":
             self._slow_s = fault.seconds or 0.0
             if self._script is not None:
@@ -379,14 +465,7 @@ class Controller:
     def write_inputs(self, values: Mapping[str, object]) -> None:
         """Apply one client data package: registers, and the IO fields with their masks."""
         with self.lock:
-            regs = self.registers
-            for name, value in values.items():
-                if name.startswith("input_int_register_"):
-                    n = int(name.rsplit("_", 1)[1])
-                    regs.in_int[n] = int(_number(value))
-                    regs.in_int_written_s[n] = self._time_s
-                elif name.startswith("input_double_register_"):
-                    regs.in_double[int(name.rsplit("_", 1)[1])] = _number(value)
+            self._write_registers(values)
             self._standard_do = _masked(values, "standard_digital_output", self._standard_do)
             self._configurable_do = _masked(values, "configurable_digital_output",
                                             self._configurable_do)
@@ -394,50 +473,95 @@ class Controller:
             if values.get("speed_slider_mask") == 1:
                 self.arm.speed_slider = min(1.0, max(0.0, _number(values["speed_slider_fraction"])))
             analog_mask = values.get("standard_analog_output_mask", 0)
+            analog_type = values.get("standard_analog_output_type", 0)
             for i in (0, 1):
                 if isinstance(analog_mask, int) and analog_mask & (1 << i):
                     self._analog_out[i] = _number(values[f"standard_analog_output_{i}"])
+                    if isinstance(analog_type, int):  # bits 2-3 of analog_io_types: outputs
+                        voltage = analog_type >> i & 1
+                        self._analog_io_types = (self._analog_io_types & ~(1 << (2 + i))
+                                                 | voltage << (2 + i))
+
+    def _write_registers(self, values: Mapping[str, object]) -> None:
+        regs = self.registers
+        for name, value in values.items():
+            prefix, _, number = name.rpartition("_")
+            if prefix == "input_int_register":
+                regs.in_int[int(number)] = int(_number(value))
+                regs.in_int_fresh.add(int(number))
+            elif prefix == "input_double_register":
+                regs.in_double[int(number)] = _number(value)
+            elif prefix == "input_bit_register":
+                regs.in_bits[int(number)] = bool(value)
+            elif name in ("input_bit_registers0_to_31", "input_bit_registers32_to_63"):
+                first = 0 if name.endswith("0_to_31") else 32
+                word = int(_number(value))
+                regs.in_bits[first : first + 32] = [bool(word >> i & 1) for i in range(32)]
 
     # --- the control loop -------------------------------------------------------------------
 
     def _run(self) -> None:
-        next_s = last_s = time.monotonic()
+        period_s = self._cycle_s
+        start_s = time.monotonic()
+        cycle = 0
         while not self._stopping.is_set():
-            next_s += CYCLE_S
-            delay_s = next_s - time.monotonic()
+            delay_s = start_s + (cycle + 1) * period_s - time.monotonic()
             if delay_s > 0:
                 self._stopping.wait(delay_s)
-            elif delay_s < -0.1:
-                next_s = time.monotonic()  # fell far behind (machine busy): resync
-            now_s = time.monotonic()
+            # The cycle due now by the wall clock: late cycles are skipped, never run back to back.
+            due = max(cycle + 1, int((time.monotonic() - start_s) / period_s))
             with self.lock:
                 try:
-                    self._cycle(now_s - last_s, now_s - self._start_s)
+                    self._cycle((due - cycle) * period_s, due * period_s)
                 except Exception:
                     log.exception("control loop cycle failed")
-            self._rtde.cycle_done()  # the cycle's RTDE package goes out now, as on a real UR
-            last_s = now_s
+            cycle = due
+            self._rtde.cycle_done(due)  # its RTDE packages go out now, as on a real UR
 
     def _cycle(self, dt_s: float, time_s: float) -> None:
         self._time_s = time_s
+        self.arm.now_s = time_s
+        self.registers.take_in_writes(time_s)  # a controller applies RTDE inputs at a cycle
         script = self._script
         if (script is not None and self._runtime_state() == RUNTIME_PLAYING
                 and self._safety_mode == SAFETY_NORMAL):
             script.cycle(time_s)
         try:
-            motion = self.arm.advance(dt_s)
+            motion = self.arm.advance(dt_s, time_s)
         except UnreachableError as exc:
             self._protective_stop(str(exc))
             motion = None
         if motion is not None:
             self._fire_move_faults(motion.index, motion.fraction)
+        self.gripper.advance(dt_s)
+        self._record_ended_motions()
         self._publish()
+
+    def _record_ended_motions(self) -> None:
+        for end in self.arm.ended:
+            motion = end.motion
+            self._motions.add({
+                "motion": motion.index, "kind": motion.kind, "start_t": motion.started_s,
+                "end_t": end.end_s, "moving_s": end.end_s - motion.started_s, "end": end.reason,
+                **(end.detail or {}),
+            })
+        self.arm.ended.clear()
 
     def _fire_move_faults(self, index: int, fraction: float) -> None:
         due = [f for f in self._faults if f.move_index == index and fraction >= f.fraction]
         for fault in due:
             self._faults.remove(fault)
             self._apply(fault)
+
+    def _digital_input_bits(self) -> int:
+        """actual_digital_input_bits: nothing is wired but the feedback input, if configured,
+        which reads true while its gripper output is on and the scripted part is present."""
+        if self._feedback is None:
+            return 0
+        output_bit, input_bit = self._feedback
+        outputs = self._standard_do | self._configurable_do << 8 | self._tool_do << 16
+        sensed = bool(outputs >> output_bit & 1) and self.gripper.part_width_mm is not None
+        return int(sensed) << input_bit
 
     def _runtime_state(self) -> int:
         if self._script is None or not self._script.running:
@@ -446,53 +570,31 @@ class Controller:
 
     def _publish(self) -> None:
         """Build every output variable's value for the RTDE senders (replaced, never mutated)."""
-        arm = self.arm
-        q = tuple(arm.q.tolist())
-        qd = tuple(arm.qd.tolist())
-        tcp_pose = tuple(arm.tcp_pose.tolist())
-        tcp_speed = tuple(arm.tcp_speed.tolist())
-        zeros6 = (0.0,) * 6
-        powered = self._robot_mode >= ROBOT_MODE_IDLE
         runtime_state = self._runtime_state()
-        out: dict[str, object] = {name: zeros6 for name, t in OUTPUT_TYPES.items()
-                                  if t == "VECTOR6D"}
-        out.update(
-            timestamp=self._time_s,
-            target_q=q, actual_q=q, target_qd=qd, actual_qd=qd,
-            actual_TCP_pose=tcp_pose, target_TCP_pose=tcp_pose,
-            actual_TCP_speed=tcp_speed, target_TCP_speed=tcp_speed,
-            joint_temperatures=(30.0,) * 6,
-            actual_joint_voltage=(48.0,) * 6 if powered else zeros6,
-            actual_execution_time=0.4,
-            robot_mode=self._robot_mode,
-            joint_mode=(_JOINT_MODE_RUNNING if powered else _JOINT_MODE_POWER_OFF,) * 6,
-            safety_mode=self._safety_mode,
-            actual_tool_accelerometer=(0.0, 0.0, 0.0),
-            speed_scaling=1.0,
-            target_speed_fraction=arm.speed_slider,
-            actual_momentum=0.0,
-            actual_main_voltage=48.0,
-            actual_robot_voltage=48.0 if powered else 0.0,
-            actual_robot_current=0.5 if powered else 0.0,
-            actual_digital_input_bits=0,
-            actual_digital_output_bits=(self._standard_do | self._configurable_do << 8
-                                        | self._tool_do << 16),
-            runtime_state=runtime_state,
-            standard_analog_input0=0.0, standard_analog_input1=0.0,
-            standard_analog_output0=self._analog_out[0],
-            standard_analog_output1=self._analog_out[1],
-            robot_status_bits=int(powered) | int(runtime_state == RUNTIME_PLAYING) << 1,
-            safety_status_bits=_SAFETY_BITS[self._safety_mode],
-            payload=arm.payload_kg,
-            payload_cog=tuple(arm.payload_cog_m.tolist()),
-            output_bit_registers0_to_31=0,
-            output_bit_registers32_to_63=0,
-        )
-        regs = self.registers
-        for n in range(48):
-            out[f"output_int_register_{n}"] = regs.out_int[n]
-            out[f"output_double_register_{n}"] = regs.out_double[n]
-        self._outputs = out
+        if runtime_state == RUNTIME_PLAYING and self._script is not None and self._script.refusing:
+            runtime_state = RUNTIME_PAUSING  # how a refused command reaches ur_rtde (program.py)
+        modes = Modes(self._robot_mode, self._safety_mode, runtime_state)
+        io = Io(self._standard_do, self._configurable_do, self._tool_do, self._digital_input_bits(),
+                (self._analog_out[0], self._analog_out[1]), self._analog_io_types)
+        self._outputs = self._output_table.build(self._time_s, self.arm, modes, io,
+                                                 self.registers)
+
+
+def _width(width_mm: float | None) -> float | None:
+    if width_mm is not None and not 0.0 <= width_mm <= 85.0:
+        raise ValueError(f"Controller: a part width must be 0..85 mm, got {width_mm}")
+    return width_mm
+
+
+def _feedback_bits(feedback_input: Sequence[int] | None) -> tuple[int, int] | None:
+    """(output bit, input bit): bits of actual_digital_output_bits / _input_bits (0-17)."""
+    if feedback_input is None:
+        return None
+    bits = tuple(int(b) for b in feedback_input)
+    if len(bits) != 2 or not all(0 <= b <= 17 for b in bits):
+        raise ValueError(f"Controller: feedback_input is (output bit, input bit), each 0..17, "
+                         f"got {feedback_input!r}")
+    return bits[0], bits[1]
 
 
 def _masked(values: Mapping[str, object], name: str, bits: int) -> int:

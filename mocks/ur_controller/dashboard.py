@@ -1,8 +1,10 @@
 """Dashboard server (29999): one `\n`-terminated reply line per request line.
 
-Texts follow PolyScope 5 where ur_rtde checks them (protocol spec section 8): the banner on
-accept, `Stopped`, `Starting program`, `Pausing program`, `Protective stop releasing`, a
-version with four numbers, a serial number of digits only.
+Commands and reply texts follow UR's dashboard server as UR's own client library encodes it
+(Universal_Robots_Client_Library, src/ur/dashboard_client_implementation_g5.cpp: every command
+with its reply pattern and the first CB3 and e-Series versions that have it), checked against
+what ur_rtde 1.6.5 parses (ur_rtde_protocol.md section 8). A command the controller's version
+does not have is answered like an unknown one: `Could not understand: '<request>'`.
 """
 
 from __future__ import annotations
@@ -11,7 +13,6 @@ import socket
 from typing import TYPE_CHECKING
 
 from mocks.ur_controller.net import Listener
-from mocks.ur_controller.rtde import POLYSCOPE_VERSION
 
 if TYPE_CHECKING:
     from mocks.ur_controller.controller import Controller
@@ -23,10 +24,42 @@ ROBOT_MODES = {3: "POWER_OFF", 4: "POWER_ON", 5: "IDLE", 7: "RUNNING"}
 SAFETY_MODES = {1: "NORMAL", 3: "PROTECTIVE_STOP", 5: "SAFEGUARD_STOP",
                 7: "ROBOT_EMERGENCY_STOP"}
 RUNTIME_STATES = {1: "STOPPED", 2: "PLAYING", 4: "PAUSED"}
-# Commands a real controller in local control mode refuses.
-_REMOTE_ONLY = ("play", "stop", "pause", "power on", "power off", "brake release", "load ",
-                "unlock protective stop", "close safety popup", "restart safety", "shutdown")
+USER_ROLES = ("PROGRAMMER", "OPERATOR", "NONE", "LOCKED", "RESTRICTED")
+OPERATIONAL_MODES = ("MANUAL", "AUTOMATIC")
+
+Version = tuple[int, int]
+# First version (major, minor) on CB3 and on e-Series; None: that line does not have it. A
+# command that takes an argument is matched by its first words.
+_COMMANDS: dict[str, tuple[Version | None, Version | None]] = {
+    "load": ((1, 4), (5, 0)), "play": ((1, 4), (5, 0)), "stop": ((1, 4), (5, 0)),
+    "pause": ((1, 4), (5, 0)), "quit": ((1, 4), (5, 0)), "shutdown": ((1, 4), (5, 0)),
+    "running": ((1, 6), (5, 0)), "robotmode": ((1, 6), (5, 0)),
+    "get loaded program": ((1, 6), (5, 0)), "popup": ((1, 6), (5, 0)),
+    "close popup": ((1, 6), (5, 0)), "addToLog": ((1, 8), (5, 0)),
+    "isProgramSaved": ((1, 8), (5, 0)), "programState": ((1, 8), (5, 0)),
+    "PolyscopeVersion": ((1, 8), (5, 0)), "version": (None, (5, 0)),
+    "setUserRole": ((3, 1), None), "getUserRole": ((3, 1), None),
+    "set operational mode": (None, (5, 0)), "get operational mode": (None, (5, 6)),
+    "clear operational mode": (None, (5, 0)),
+    "power on": ((3, 0), (5, 0)), "power off": ((3, 0), (5, 0)),
+    "brake release": ((3, 0), (5, 0)), "safetymode": ((3, 0), (5, 0)),
+    "safetystatus": (None, (5, 4)), "unlock protective stop": ((3, 1), (5, 0)),
+    "close safety popup": ((3, 1), (5, 0)), "load installation": ((3, 2), (5, 0)),
+    "restart safety": ((3, 7), (5, 1)), "is in remote control": (None, (5, 6)),
+    "get serial number": ((3, 12), (5, 6)), "get robot model": ((3, 12), (5, 6)),
+    "saveLog": ((3, 13), (5, 8)),
+}
+# Commands a controller in local control mode refuses.
+_REMOTE_ONLY = ("play", "stop", "pause", "power on", "power off", "brake release", "load",
+                "unlock protective stop", "close safety popup", "restart safety", "shutdown",
+                "load installation")
 _LOCAL_MODE_REPLY = "Command is not allowed due to safety reasons. Robot is in local control"
+
+
+def command_of(request: str) -> str | None:
+    """The command a request line names (the longest one that fits), or None."""
+    fitting = [c for c in _COMMANDS if request == c or request.startswith(c + " ")]
+    return max(fitting, key=len) if fitting else None
 
 
 class DashboardServer:
@@ -34,6 +67,11 @@ class DashboardServer:
 
     def __init__(self, host: str, controller: Controller):
         self._ctl = controller
+        version = controller.profile.version
+        self._version: Version = (version[0], version[1])
+        self._loaded_program = ""
+        self._user_role = "PROGRAMMER"
+        self._operational_mode = "NONE"
         self.listener = Listener(host, DASHBOARD_PORT, "dashboard", self._serve)
 
     def _serve(self, sock: socket.socket) -> None:
@@ -51,74 +89,108 @@ class DashboardServer:
                 if request == "quit":
                     return
 
+    def _has(self, command: str) -> bool:
+        cb3, e_series = _COMMANDS[command]
+        first = cb3 if self._version[0] < 5 else e_series
+        return first is not None and self._version >= first
+
     def answer(self, request: str) -> str:
         """The reply line (without newline) to one request line."""
+        command = command_of(request)
+        if command is None or not self._has(command):
+            return f"Could not understand: '{request}'"
         ctl = self._ctl
-        version = ".".join(str(n) for n in POLYSCOPE_VERSION)
-        if request.startswith(_REMOTE_ONLY) and not ctl.snapshot().remote_control:
+        snap = ctl.snapshot()
+        argument = request[len(command):].strip()
+        if (command in _REMOTE_ONLY and ctl.profile.remote_control_mode
+                and not snap.remote_control):
             return _LOCAL_MODE_REPLY
-        if request == "PolyscopeVersion":
-            return f"URSoftware {version} (Jul 12 2023)"
-        if request == "get serial number":
+        if command == "PolyscopeVersion":
+            return f"URSoftware {ctl.profile.version_text} (Jul 12 2023)"
+        if command == "version":
+            return ctl.profile.version_text
+        if command == "get serial number":
             return SERIAL_NUMBER
-        if request == "get robot model":
+        if command == "get robot model":
             return ctl.model_name.upper().removesuffix("E")
-        if request == "is in remote control":
-            return "true" if ctl.snapshot().remote_control else "false"
-        if request == "robotmode":
-            return f"Robotmode: {ROBOT_MODES.get(ctl.snapshot().robot_mode, 'UNKNOWN')}"
-        if request in ("safetystatus", "safetymode"):
-            label = "Safetystatus" if request == "safetystatus" else "Safetymode"
-            return f"{label}: {SAFETY_MODES.get(ctl.snapshot().safety_mode, 'UNKNOWN')}"
-        if request == "programState":
-            state = RUNTIME_STATES.get(ctl.snapshot().runtime_state, "STOPPED")
-            return f"{state} {ctl.program_name()}"
-        if request == "running":
-            return f"Program running: {'true' if ctl.snapshot().program_running else 'false'}"
-        if request == "get loaded program":
-            return f"Loaded program: {ctl.program_name()}"
-        if request == "isProgramSaved":
-            return f"True {ctl.program_name()}"
-        if request.startswith("load "):
-            return f"Loading program: {request[5:]}"
-        return self._act(request)
+        if command == "is in remote control":
+            return "true" if snap.remote_control else "false"
+        if command == "robotmode":
+            return f"Robotmode: {ROBOT_MODES.get(snap.robot_mode, 'UNKNOWN')}"
+        if command in ("safetystatus", "safetymode"):
+            label = "Safetystatus" if command == "safetystatus" else "Safetymode"
+            return f"{label}: {SAFETY_MODES.get(snap.safety_mode, 'UNKNOWN')}"
+        if command == "programState":
+            return f"{RUNTIME_STATES.get(snap.runtime_state, 'STOPPED')} {self._program_name()}"
+        if command == "running":
+            return f"Program running: {'true' if snap.program_running else 'false'}"
+        if command == "get loaded program":
+            if not self._loaded_program:
+                return "No program loaded"
+            return f"Loaded program: {self._loaded_program}"
+        if command == "isProgramSaved":
+            return f"true {self._program_name()}"
+        return self._act(command, argument)
 
-    def _act(self, request: str) -> str:
+    def _program_name(self) -> str:
+        running = self._ctl.program_name()
+        return running if running != "<unnamed>" or not self._loaded_program else (
+            self._loaded_program.rsplit("/", 1)[-1])
+
+    def _act(self, command: str, argument: str) -> str:
         ctl = self._ctl
-        if request == "stop":
+        if command == "load":
+            self._loaded_program = argument
+            return f"Loading program: {argument}"
+        if command == "load installation":
+            return f"Loading installation: {argument}"
+        if command == "stop":
             ctl.stop_program("dashboard stop")
             return "Stopped"
-        if request == "pause":
+        if command == "pause":
             return "Pausing program" if ctl.pause_program() else "Failed to execute: pause"
-        if request == "play":
+        if command == "play":
             return "Starting program" if ctl.resume_program() else "Failed to execute: play"
-        if request == "power on":
+        if command == "power on":
             return "Powering on" if ctl.power_on() else "Failed to power on"
-        if request == "power off":
+        if command == "power off":
             ctl.power_off()
             return "Powering off"
-        if request == "brake release":
+        if command == "brake release":
             return "Brake releasing" if ctl.release_brakes() else "Failed to release brakes"
-        if request == "unlock protective stop":
+        if command == "unlock protective stop":
             if ctl.unlock_protective_stop():
                 return "Protective stop releasing"
             return "Cannot unlock protective stop: the robot is not protective stopped"
-        if request == "close safety popup":
+        if command == "close safety popup":
             ctl.close_safety_popup()
             return "closing safety popup"
-        if request == "restart safety":
+        if command == "restart safety":
             ctl.restart_safety()
             return "Restarting safety"
-        if request.startswith("popup "):
-            return "showing popup"
-        if request == "close popup":
-            return "closing popup"
-        if request.startswith("addToLog "):
-            return "Added log message"
-        if request.startswith("setUserRole "):
-            return f"Setting user role: {request[12:]}"
-        if request == "quit":
-            return "Disconnected"
-        if request == "shutdown":
-            return "Shutting down"
-        return f"Could not understand: '{request}'"
+        return self._settings(command, argument)
+
+    def _settings(self, command: str, argument: str) -> str:
+        if command == "setUserRole":
+            if argument.upper() not in USER_ROLES:
+                return f"Failed setting user role: {argument}"
+            self._user_role = argument.upper()
+            return f"Setting user role: {argument}"
+        if command == "getUserRole":
+            return self._user_role
+        if command == "set operational mode":
+            if argument.upper() not in OPERATIONAL_MODES:
+                return f"Failed to set operational mode: {argument}"
+            self._operational_mode = argument.upper()
+            return f"Operational mode {self._operational_mode} is set"
+        if command == "get operational mode":
+            return self._operational_mode
+        if command == "clear operational mode":
+            self._operational_mode = "NONE"
+            return "No longer controlling the operational mode. Current operational mode: NONE"
+        return _MESSAGES[command]
+
+
+_MESSAGES = {"popup": "showing popup", "close popup": "closing popup",
+             "addToLog": "Added log message", "saveLog": "Log saved to disk",
+             "quit": "Disconnected", "shutdown": "Shutting down"}

@@ -1,4 +1,4 @@
-"""Kinematics of UR e-Series arms for the simulated controller (nominal DH, analytic IK).
+"""Kinematics of UR arms (e-Series and CB3) for the simulated controller (nominal DH, analytic IK).
 
 Self-contained on purpose (numpy + scipy only, never ``handeye_pick``): the simulator must not
 share pose maths with the code it is testing, or a shared bug would cancel out.
@@ -48,7 +48,7 @@ forward check in ``inverse_all`` still judges the result.
 
 _ROTATION_TOLERANCE = 1e-6
 _FULL_TURN = 2.0 * math.pi
-_E_SERIES_LIMIT_RAD = 2.0 * math.pi
+_JOINT_LIMIT_RAD = 2.0 * math.pi
 _UR_ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
 
 
@@ -70,11 +70,11 @@ class URModel:
     joint_max_rad: tuple[float, float, float, float, float, float]
 
 
-def _e_series(
+def _ur_model(
     name: str, d1: float, a2: float, a3: float, d4: float, d5: float, d6: float, reach_m: float
 ) -> URModel:
-    lo = -_E_SERIES_LIMIT_RAD
-    hi = _E_SERIES_LIMIT_RAD
+    lo = -_JOINT_LIMIT_RAD
+    hi = _JOINT_LIMIT_RAD
     return URModel(
         name=name,
         d=(d1, 0.0, 0.0, d4, d5, d6),
@@ -87,12 +87,21 @@ def _e_series(
 
 
 MODELS: dict[str, URModel] = {
-    "ur3e": _e_series("ur3e", 0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921, 0.50),
-    "ur5e": _e_series("ur5e", 0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996, 0.85),
-    "ur10e": _e_series("ur10e", 0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655, 1.30),
-    "ur16e": _e_series("ur16e", 0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655, 0.90),
+    "ur3e": _ur_model("ur3e", 0.15185, -0.24355, -0.2132, 0.13105, 0.08535, 0.0921, 0.50),
+    "ur5e": _ur_model("ur5e", 0.1625, -0.425, -0.3922, 0.1333, 0.0997, 0.0996, 0.85),
+    "ur10e": _ur_model("ur10e", 0.1807, -0.6127, -0.57155, 0.17415, 0.11985, 0.11655, 1.30),
+    "ur16e": _ur_model("ur16e", 0.1807, -0.4784, -0.36, 0.17415, 0.11985, 0.11655, 0.90),
 }
 """Nominal e-Series models by lower-case name."""
+
+CB3_MODELS: dict[str, URModel] = {
+    "ur3": _ur_model("ur3", 0.1519, -0.24365, -0.21325, 0.11235, 0.08535, 0.0819, 0.50),
+    "ur5": _ur_model("ur5", 0.089159, -0.425, -0.39225, 0.10915, 0.09465, 0.0823, 0.85),
+    "ur10": _ur_model("ur10", 0.1273, -0.612, -0.5723, 0.163941, 0.1157, 0.0922, 1.30),
+}
+"""Nominal CB3 models (the cb3 profile's arms), from the same UR publication."""
+
+ALL_MODELS: dict[str, URModel] = {**MODELS, **CB3_MODELS}
 
 
 # --- input checks -------------------------------------------------------------------------------
@@ -174,6 +183,13 @@ def forward(model: URModel, q: ArrayLike) -> Matrix:
     joints = _vector(q, 6, "forward", "q")
     T_base_flange: Matrix = _forward_many(model, joints[np.newaxis])[0]
     return T_base_flange
+
+
+def elbow_position(model: URModel, q: ArrayLike) -> Matrix:
+    """Position (3, m) of the elbow in base: DH frame 2's origin, on joint 3's axis."""
+    links = _links(model, _vector(q, 6, "elbow_position", "q")[np.newaxis])[0]
+    position: Matrix = (links[0] @ links[1])[:3, 3]
+    return position
 
 
 def _links(model: URModel, Q: Matrix) -> Matrix:

@@ -14,11 +14,18 @@ Output registers written in a cycle reach clients with the next RTDE sample.
 A command this emulator does not implement stops the program, as a URScript runtime error would,
 and is logged loudly: the client sees `runtime_state` leave PLAYING and returns False instead of
 waiting 300 s for an answer that never comes.
+
+Fault refuse-move: the next motion command is not run and never answered; while its id stays in
+the register (`refusing`) the controller reports runtime_state PAUSING (3) instead of PLAYING.
+That is the only way ur_rtde 1.6.5's sendCommand returns False at once without a protective stop,
+an emergency stop or a stopped program (it polls runtime_state while it waits for the answer);
+ur_rtde then clears the register and everything reads normal again.
 """
 
 from __future__ import annotations
 
 import logging
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -36,6 +43,7 @@ STOP_SCRIPT = 255
 # Processed every cycle while present (the script's realtime branch plus 1.6.5's additions).
 REALTIME_IDS = frozenset({6, 9, 10, 11, 24, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71})
 MOTION_KINDS = {1: "moveJ", 2: "moveJ_IK", 3: "moveL", 4: "moveL_FK"}
+PAYLOAD_KINDS = {17: "setPayload", 65: "setTargetPayload"}
 
 
 class Registers:
@@ -46,22 +54,35 @@ class Registers:
         self.in_double = [0.0] * 48
         self.out_int = [0] * 48
         self.out_double = [0.0] * 48
-        # Controller time of the last client write to each input int register (watchdog).
+        self.in_bits = [False] * 128
+        self.out_bits = [False] * 128
+        # Controller time of the cycle that took in the last client write to each input int
+        # register (the watchdog's "update"), and the registers written since the last cycle.
         self.in_int_written_s = [0.0] * 48
+        self.in_int_fresh: set[int] = set()
+
+    def take_in_writes(self, now_s: float) -> None:
+        """Start of a cycle: inputs written since the last one count as updated now."""
+        for n in self.in_int_fresh:
+            self.in_int_written_s[n] = now_s
+        self.in_int_fresh.clear()
 
 
 class ControlScript:
     """The running `rtde_control` program: call `cycle()` once per control cycle."""
 
     def __init__(self, registers: Registers, arm: Arm, record: CommandRecord, reg_offset: int,
-                 protective_stop: Callable[[str], None], now_s: float):
+                 protective_stop: Callable[[str], None], take_refused_move: Callable[[], bool],
+                 now_s: float):
         self._reg = registers
         self._arm = arm
         self._commands = record
         self._off = reg_offset
         self._protective_stop = protective_stop
+        self._take_refused_move = take_refused_move  # fault refuse-move, one move per call
         self.running = True
         self.ack_delay_s = 0.0  # fault slow:SECONDS: extra time before each DONE
+        self.refusing = False  # a refused motion command is still in the register
         self._executing = False
         self._blocked_until_s: float | None = None  # a synchronous command is still running
         self._blocking_motion: Motion | None = None
@@ -120,11 +141,12 @@ class ControlScript:
                 self._set_out_int(0, READY)
         elif cmd == 0:
             self._executing = False
+            self.refusing = False
             self._set_out_int(0, READY)
         elif not self._executing:
             self._executing = True
             self._process(cmd)
-            if self.running and cmd != STOP_SCRIPT:
+            if self.running and cmd != STOP_SCRIPT and not self.refusing:
                 self._blocked_until_s = now_s + self.ack_delay_s
                 self._finish_command(now_s, self._blocked_until_s)
 
@@ -138,24 +160,39 @@ class ControlScript:
         self._blocking_motion = None
         self._set_out_int(0, DONE)
 
-    def stop(self, reason: str) -> None:
-        """End the program (dashboard stop, pendant stop, 255, runtime error, watchdog)."""
+    def stop(self, reason: str, detail: dict[str, float] | None = None,
+             at_s: float | None = None) -> None:
+        """End the program (dashboard stop, pendant stop, 255, runtime error, watchdog); `detail`
+        and the controller time it took effect (`at_s`, default now) go with the halted motion
+        into the motion record."""
         if self.running:
             log.info("rtde_control program stopped: %s", reason)
         self.running = False
         if self._async_motion is not None:
             self._async_motion = None
             self._write_async_word(-1)
-        self._arm.halt()
+        self._arm.halt(f"program stopped: {reason}", detail, at_s)
 
     def _watchdog_starved(self, now_s: float) -> bool:
+        """rtde_set_watchdog(input_int_register_0 (+offset), f, "stop"), as ur_rtde's setWatchdog
+        arms it: the program stops in the first control cycle after the input has gone 1/f s
+        without an update. Checked every cycle, also while a synchronous move blocks the script;
+        a cycle that runs late stops the arm where the previous cycle left it, and the stop is
+        recorded at the cycle it was due. A frequency <= 0 (which URScript does not document)
+        counts as starved at once."""
         if self._watchdog_hz is None:
             return False
-        silence_s = now_s - self._reg.in_int_written_s[self._off]
-        if silence_s <= 1.0 / self._watchdog_hz:
+        last_update_s = self._reg.in_int_written_s[self._off]
+        period_s = self._arm.cycle_s
+        allowed_cycles = math.floor(1.0 / self._watchdog_hz / period_s + 1e-9) + 1 if (
+            self._watchdog_hz > 0) else 0
+        due_s = last_update_s + allowed_cycles * period_s
+        if now_s < due_s - 1e-9:
             return False
-        self.stop(f"RTDE watchdog: input_int_register_{self._off} not written for "
-                  f"{silence_s:.3f} s, minimum frequency {self._watchdog_hz} Hz")
+        self.stop(f"RTDE watchdog: input_int_register_{self._off} not updated for "
+                  f"{due_s - last_update_s:.3f} s, minimum frequency {self._watchdog_hz} Hz",
+                  {"watchdog_last_update_t": last_update_s,
+                   "watchdog_min_frequency_hz": self._watchdog_hz}, at_s=min(due_s, now_s))
         return True
 
     # --- commands -----------------------------------------------------------------------------
@@ -173,11 +210,8 @@ class ControlScript:
             self._move(cmd)
         elif cmd in (15, 33, 34):
             self._stop_move({15: "speedStop", 33: "stopL", 34: "stopJ"}[cmd])
-        elif cmd == 17:
-            mass, cog = self._in_doubles(0, 1)[0], self._in_doubles(1, 3)
-            arm.payload_kg = float(mass)
-            if np.any(cog != 0.0):  # a zero CoG keeps the current one, as the script does
-                arm.payload_cog_m = cog
+        elif cmd in PAYLOAD_KINDS:
+            self._set_payload(PAYLOAD_KINDS[cmd])
         elif cmd == 29:
             arm.set_tcp(self._in_doubles(0))
         elif cmd == 31:
@@ -197,7 +231,7 @@ class ControlScript:
         elif cmd == 40:
             self._set_out_doubles(arm.tcp_offset)
         elif cmd == 43:
-            self._set_out_doubles(arm.tcp_pose)
+            self._set_out_doubles(arm.actual_tcp_pose)  # get_forward_kin() at the actual joints
         elif cmd == 44:
             # The script always reads a TCP from D6-D11; getForwardKinematics(q) leaves whatever
             # an earlier command wrote there (faithful to the real script).
@@ -211,9 +245,9 @@ class ControlScript:
                                        f"{self._in_doubles(0).round(6).tolist()}")
             self._set_out_doubles(q)
         elif cmd == 47:
-            self._set_out_int(1, int(arm.motion is None))
+            self._set_out_int(1, int(arm.steady))
         elif cmd == 58:
-            self._set_out_doubles(arm.flange_pose)
+            self._set_out_doubles(arm.actual_flange_pose)
         elif cmd in (60, 61):
             q_near = self._in_doubles(6) if cmd == 61 else None
             self._set_out_int(1, int(arm.ik_tcp(self._in_doubles(0), q_near) is not None))
@@ -229,27 +263,49 @@ class ControlScript:
     def _record(self, entry: dict[str, Any]) -> None:
         self._commands.add({"t": self._now_s, **{key: _plain(v) for key, v in entry.items()}})
 
+    def _set_payload(self, kind: str) -> None:
+        """set_payload(mass, cog) / set_target_payload(mass, cog, inertia): kg, m in the tool
+        flange frame, kg m^2. A zero CoG keeps the current one (setPayload only), as the script
+        does from PolyScope 5.0."""
+        arm = self._arm
+        mass, cog = float(self._in_doubles(0, 1)[0]), self._in_doubles(1, 3)
+        entry: dict[str, Any] = {"kind": kind, "mass": mass, "cog": cog}
+        arm.payload_kg = mass
+        if kind == "setTargetPayload" or np.any(cog != 0.0):
+            arm.payload_cog_m = cog
+        if kind == "setTargetPayload":
+            arm.payload_inertia = self._in_doubles(4, 6)
+            entry["inertia"] = arm.payload_inertia
+        self._record(entry)
+
     def _move(self, cmd: int) -> None:
         target = self._in_doubles(0)
         speed, accel = (float(v) for v in self._in_doubles(6, 2))
         is_async = self._in_int(1) == 1
         kind = MOTION_KINDS[cmd]
-        self._record({"kind": kind, "target": target, "speed": speed, "accel": accel,
-                      "async": is_async})
+        entry: dict[str, Any] = {"kind": kind, "target": target, "speed": speed, "accel": accel,
+                                 "async": is_async}
+        if self._take_refused_move():
+            self.refusing = True
+            log.warning("fault refuse-move: refusing %s", kind)
+            self._record({**entry, "refused": True})
+            return
+        self._record(entry)
         self._stop_async_move()
         arm = self._arm
         if kind == "moveJ":
-            motion = arm.move_joint(target, speed, accel)
+            motion = arm.move_joint(target, speed, accel, kind)
         elif kind == "moveJ_IK":
             q = arm.ik_tcp(target)
             if q is None:
                 raise UnreachableError(f"moveJ_IK target {target.round(6).tolist()} has no IK "
                                        f"solution")
-            motion = arm.move_joint(q, speed, accel)
+            motion = arm.move_joint(q, speed, accel, kind)
         elif kind == "moveL":
-            motion = arm.move_linear(target, speed, accel)
+            motion = arm.move_linear(target, speed, accel, kind)
         else:
-            motion = arm.move_linear(kin.matrix_to_pose(arm.tcp_from_q(target)), speed, accel)
+            motion = arm.move_linear(kin.matrix_to_pose(arm.tcp_from_q(target)), speed, accel,
+                                     kind)
         if is_async:
             self._async_motion = motion
             self._write_async_word(0)
@@ -260,7 +316,7 @@ class ControlScript:
         """A new move kills the running async move: the arm halts, the word says finished."""
         if self._async_motion is not None:
             self._async_motion = None
-            self._arm.halt()
+            self._arm.halt("replaced by a new move")
             self._write_async_word(-1)
 
     def _stop_move(self, kind: str) -> None:

@@ -1,8 +1,7 @@
-"""The record of what the robot was told: one dict per motion or stop command the script ran.
-
-`{"t": controller_time_s, "kind": "moveL", "target": [6 numbers], "speed": v, "accel": a,
-"async": bool}`; stops carry "accel" (the deceleration) and no target; speedStop has no "async".
-With a path, each entry is also appended to it as one JSON line, flushed at once.
+"""Append-only records of dicts: the command record (what the robot was told: one dict per
+motion, stop or payload command the script ran) and the motion record (one dict per motion once
+it ended); README.md gives both formats. With a path, each entry is also appended to it as one
+JSON line, flushed at once.
 """
 
 from __future__ import annotations
@@ -14,7 +13,7 @@ from typing import Any, TextIO
 
 
 class CommandRecord:
-    """Thread-safe, append-only list of command dicts, mirrored to a JSON-lines file if given."""
+    """Thread-safe, append-only list of dicts, mirrored to a JSON-lines file if given."""
 
     def __init__(self, path: str | Path | None = None):
         self._entries: list[dict[str, Any]] = []

@@ -1,9 +1,12 @@
 """RTDE protocol version 2 server (port 30004): framing, recipes, input claims, streaming.
 
-Wire format (ur_rtde_protocol.md section 2): every package is `uint16 size` (big-endian, header
-included) + `uint8 type` + payload. Setup requests (V, v, O, I, S, P) get exactly one reply each,
-at once. After S a sender thread streams the output recipe at the requested frequency: like a
-real controller's, each data package leaves right after the control cycle that produced it.
+Wire format (UR's RTDE guide; ur_rtde_protocol.md section 2): every package is `uint16 size`
+(big-endian, header included) + `uint8 type` + payload. Setup requests (V, v, O, I, S, P) get
+exactly one reply each, at once; text messages (M) from a client are logged, never answered.
+After S a sender thread streams the output recipe at the requested frequency, at most the
+control loop's: like a real controller's, each data package leaves right after the control cycle
+that produced it. Field names and types are the profile's (fields.py); any other name is
+answered NOT_FOUND.
 """
 
 from __future__ import annotations
@@ -12,18 +15,18 @@ import logging
 import socket
 import struct
 import threading
+from collections import deque
 from collections.abc import Mapping, Sequence
 from typing import Protocol
 
 from mocks.ur_controller.net import Listener, recv_exactly
+from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES, Profile
 
 log = logging.getLogger("mocks.ur_controller")
 
 RTDE_PORT = 30004
-# PolyScope 5.15: 500 Hz, payload and F/T fields, the classic 13-name control recipe.
-POLYSCOPE_VERSION = (5, 15, 0, 1234)
-DEFAULT_FREQUENCY_HZ = 500.0
-CYCLE_HZ = 500.0  # e-Series control loop rate; a sender sends after every Nth cycle
+PROTOCOL_VERSION = 2  # the only RTDE protocol version served; any other request is refused
+RECENT_CYCLES = 32  # published cycles kept for late senders (64 ms at 500 Hz)
 STREAM_FALLBACK_S = 0.1
 """A sender that sees no control cycle this long after one was due sends the latest outputs
 anyway: a starved control loop slows the stream but never pauses it towards ur_rtde's 2.5 s."""
@@ -41,67 +44,6 @@ _FORMATS = {
     "VECTOR6UINT32": "6I",
 }
 _VECTOR_SIZES = {"VECTOR3D": 3, "VECTOR6D": 6, "VECTOR6INT32": 6, "VECTOR6UINT32": 6}
-
-
-def _output_types() -> dict[str, str]:
-    types: dict[str, str] = {}
-    for name in (
-        "timestamp", "actual_execution_time", "speed_scaling", "target_speed_fraction",
-        "actual_momentum", "actual_main_voltage", "actual_robot_voltage",
-        "actual_robot_current", "standard_analog_input0", "standard_analog_input1",
-        "standard_analog_output0", "standard_analog_output1", "payload",
-    ):
-        types[name] = "DOUBLE"
-    for name in (
-        "target_q", "target_qd", "target_qdd", "target_current", "target_moment",
-        "actual_q", "actual_qd", "actual_current", "joint_control_output",
-        "actual_TCP_pose", "actual_TCP_speed", "actual_TCP_force", "target_TCP_pose",
-        "target_TCP_speed", "joint_temperatures", "actual_joint_voltage", "ft_raw_wrench",
-        "payload_inertia",
-    ):
-        types[name] = "VECTOR6D"
-    types["actual_tool_accelerometer"] = "VECTOR3D"
-    types["payload_cog"] = "VECTOR3D"
-    types["joint_mode"] = "VECTOR6INT32"
-    types["robot_mode"] = "INT32"
-    types["safety_mode"] = "INT32"
-    for name in (
-        "runtime_state", "robot_status_bits", "safety_status_bits",
-        "output_bit_registers0_to_31", "output_bit_registers32_to_63",
-    ):
-        types[name] = "UINT32"
-    types["actual_digital_input_bits"] = "UINT64"
-    types["actual_digital_output_bits"] = "UINT64"
-    for n in range(48):
-        types[f"output_int_register_{n}"] = "INT32"
-        types[f"output_double_register_{n}"] = "DOUBLE"
-    return types
-
-
-def _input_types() -> dict[str, str]:
-    types: dict[str, str] = {}
-    for n in range(48):
-        types[f"input_int_register_{n}"] = "INT32"
-        types[f"input_double_register_{n}"] = "DOUBLE"
-    types["external_force_torque"] = "VECTOR6D"
-    for name in (
-        "standard_digital_output_mask", "standard_digital_output",
-        "configurable_digital_output_mask", "configurable_digital_output",
-        "tool_digital_output_mask", "tool_digital_output", "standard_analog_output_mask",
-        "standard_analog_output_type",
-    ):
-        types[name] = "UINT8"
-    types["speed_slider_mask"] = "UINT32"
-    types["speed_slider_fraction"] = "DOUBLE"
-    types["standard_analog_output_0"] = "DOUBLE"
-    types["standard_analog_output_1"] = "DOUBLE"
-    return types
-
-
-# The real UR type of every variable ur_rtde 1.6.5 knows (protocol spec section 3). Names outside
-# these tables are answered NOT_FOUND.
-OUTPUT_TYPES: dict[str, str] = _output_types()
-INPUT_TYPES: dict[str, str] = _input_types()
 
 
 def package(kind: bytes, payload: bytes) -> bytes:
@@ -151,12 +93,12 @@ class _Recipe:
 class _Connection:
     """One client on 30004: its recipes, input claims and (after S) its sender thread."""
 
-    def __init__(self, sock: socket.socket):
+    def __init__(self, sock: socket.socket, frequency_hz: float):
         self.sock = sock
         self.send_lock = threading.Lock()  # replies and data packages never interleave
         self.inputs: dict[int, _Recipe] = {}
         self.output: _Recipe | None = None
-        self.frequency_hz = DEFAULT_FREQUENCY_HZ
+        self.frequency_hz = frequency_hz
         self.streaming = threading.Event()
         self.closed = threading.Event()
         self.sender: threading.Thread | None = None
@@ -169,16 +111,19 @@ class _Connection:
 class RtdeServer:
     """Serves RTDE on (host, 30004) for any number of clients."""
 
-    def __init__(self, host: str, backend: RtdeBackend):
+    def __init__(self, host: str, backend: RtdeBackend,
+                 profile: Profile = PROFILES[DEFAULT_PROFILE]):
         self._backend = backend
+        self._profile = profile
         self._claims: dict[str, _Connection] = {}
         self._claims_lock = threading.Lock()
-        self._cycle = 0  # control cycles published so far
+        self._cycle = 0  # number (controller time / period) of the latest published cycle
+        self._recent: deque[tuple[int, Mapping[str, object]]] = deque(maxlen=RECENT_CYCLES)
         self._cycle_done = threading.Condition()
         self.listener = Listener(host, RTDE_PORT, "rtde", self._serve)
 
     def _serve(self, sock: socket.socket) -> None:
-        conn = _Connection(sock)
+        conn = _Connection(sock, self._profile.cycle_hz)
         try:
             while True:
                 size, kind = struct.unpack(">HB", recv_exactly(sock, 3))
@@ -199,9 +144,16 @@ class RtdeServer:
 
     def _handle(self, conn: _Connection, kind: bytes, payload: bytes) -> None:
         if kind == b"V":
-            conn.send(package(b"V", b"\x01"))
+            (version,) = struct.unpack_from(">H", payload) if len(payload) >= 2 else (0,)
+            accepted = version == PROTOCOL_VERSION
+            if not accepted:
+                log.warning("rtde: refusing protocol version %d (serving %d)", version,
+                            PROTOCOL_VERSION)
+            conn.send(package(b"V", bytes([accepted])))
         elif kind == b"v":
-            conn.send(package(b"v", struct.pack(">IIII", *POLYSCOPE_VERSION)))
+            conn.send(package(b"v", struct.pack(">IIII", *self._profile.version)))
+        elif kind == b"M":
+            log.info("rtde: text message from a client: %r", payload)
         elif kind == b"O":
             self._setup_outputs(conn, payload)
         elif kind == b"I":
@@ -219,10 +171,10 @@ class RtdeServer:
     def _setup_outputs(self, conn: _Connection, payload: bytes) -> None:
         (frequency_hz,) = struct.unpack_from(">d", payload)
         names = [n for n in payload[8:].decode("ascii").split(",") if n]
-        types = [OUTPUT_TYPES.get(name, "NOT_FOUND") for name in names]
+        types = [self._profile.output_types.get(name, "NOT_FOUND") for name in names]
         if "NOT_FOUND" not in types:
             conn.output = _Recipe(names, types)
-            conn.frequency_hz = frequency_hz if frequency_hz > 0 else DEFAULT_FREQUENCY_HZ
+            conn.frequency_hz = frequency_hz if frequency_hz > 0 else self._profile.cycle_hz
         else:
             missing = [n for n, t in zip(names, types, strict=True) if t == "NOT_FOUND"]
             log.warning("rtde: output names not found: %s", missing)
@@ -230,7 +182,7 @@ class RtdeServer:
 
     def _setup_inputs(self, conn: _Connection, payload: bytes) -> None:
         names = [n for n in payload.decode("ascii").split(",") if n]
-        types = [INPUT_TYPES.get(name, "NOT_FOUND") for name in names]
+        types = [self._profile.input_types.get(name, "NOT_FOUND") for name in names]
         with self._claims_lock:
             for i, name in enumerate(names):
                 owner = self._claims.get(name)
@@ -287,42 +239,57 @@ class RtdeServer:
             index += count
         self._backend.write_inputs(fields)
 
-    def cycle_done(self) -> None:
-        """Wake the senders: called by the control loop right after each cycle's publish.
+    def cycle_done(self, cycle: int | None = None) -> None:
+        """Wake the senders: called by the control loop right after each cycle's publish, with
+        the cycle's number in controller time (default: the previous number + 1).
 
-        Only notifies; the senders send on their own threads, so a slow client socket never
-        holds up the control loop.
+        Keeps that cycle's outputs for the senders and only notifies; the senders send on their
+        own threads, so a slow client socket never holds up the control loop.
         """
         with self._cycle_done:
-            self._cycle += 1
+            self._cycle = self._cycle + 1 if cycle is None else cycle
+            self._recent.append((self._cycle, self._backend.latest_outputs()))
             self._cycle_done.notify_all()
 
-    def _wait_for_cycle(self, conn: _Connection, due: int, timeout_s: float) -> int:
-        """Wait until control cycle ``due`` is published, the connection closes or ``timeout_s``
-        passes; returns the number of the latest published cycle."""
+    def _wait_for_cycle(self, conn: _Connection, after: int,
+                        timeout_s: float) -> list[tuple[int, Mapping[str, object]]]:
+        """Wait until a cycle later than ``after`` is published, the connection closes or
+        ``timeout_s`` passes; returns the recent cycles later than ``after``, oldest first."""
         with self._cycle_done:
             self._cycle_done.wait_for(
-                lambda: self._cycle >= due or conn.closed.is_set(), timeout=timeout_s
+                lambda: self._cycle > after or conn.closed.is_set(), timeout=timeout_s
             )
-            return self._cycle
+            return [(n, outputs) for n, outputs in self._recent if n > after]
 
     def _stream(self, conn: _Connection) -> None:
-        """Send the output recipe after every Nth control cycle until the connection closes.
+        """Send the output recipe of every Nth control cycle until the connection closes.
 
-        N = CYCLE_HZ / requested frequency, rounded, at least 1: a 500 Hz client gets every
-        cycle, a 125 Hz one every 4th.
+        N = control loop frequency / requested frequency, rounded, at least 1: on e-Series a
+        500 Hz client gets every cycle, a 125 Hz one the cycles whose number is a multiple of 4.
+        A package whose cycle was skipped (the loop ran late) is skipped too, as a busy real
+        controller skips packages; a late sender sends the newest due cycle, never a cycle out of
+        step. With no cycle at all for a while it resends the latest outputs (see
+        STREAM_FALLBACK_S).
         """
-        every = max(1, round(CYCLE_HZ / conn.frequency_hz))
-        timeout_s = every / CYCLE_HZ + STREAM_FALLBACK_S
-        cycle = self._cycle
+        cycle_hz = self._profile.cycle_hz
+        every = max(1, round(cycle_hz / conn.frequency_hz))
+        timeout_s = every / cycle_hz + STREAM_FALLBACK_S
+        seen = self._cycle
         while not conn.closed.is_set():
-            cycle = self._wait_for_cycle(conn, (cycle // every + 1) * every, timeout_s)
+            new = self._wait_for_cycle(conn, seen, timeout_s)
             if conn.closed.is_set():
                 return
+            due = [outputs for n, outputs in new if n % every == 0]
+            if new:
+                seen = new[-1][0]
+                if not due:
+                    continue
+                outputs = due[-1]
+            else:
+                outputs = self._backend.latest_outputs()  # no cycle came: the loop is starved
             recipe = conn.output
             if recipe is None or not conn.streaming.is_set() or self._backend.stream_stalled():
                 continue
-            outputs = self._backend.latest_outputs()
             body = recipe.struct.pack(1, *flatten([outputs[name] for name in recipe.names]))
             try:
                 conn.send(package(b"U", body))

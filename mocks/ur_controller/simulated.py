@@ -19,7 +19,8 @@ from typing import Any
 
 from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, ControllerSnapshot
 
-_REPO_ROOT = Path(__file__).resolve().parents[2]
+# The folder holding the `mocks` package (the repository, or site-packages once installed).
+_IMPORT_ROOT = Path(__file__).resolve().parents[2]
 _START_TIMEOUT_S = 30.0
 
 
@@ -27,13 +28,15 @@ class SimulatedController:
     """A simulated UR controller on `host`; a context manager (start on enter, stop on exit).
 
     Arguments are those of the command line (see README.md): poses are UR vectors (m, rad),
-    joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds `FAULT@WHEN` specs.
+    joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds `FAULT@WHEN` specs, `profile` is
+    e-series (default), cb3 or polyscope-x, `tracking` adds tracking lag and measurement noise,
+    `part_width_mm` puts a part at the gripper, `feedback_input` is (output bit, input bit).
     """
 
     def __init__(
         self,
         host: str = "127.0.0.1",
-        model: str = "ur5e",
+        model: str | None = None,
         initial_q: Sequence[float] | None = None,
         initial_flange_pose: Sequence[float] | None = None,
         tcp_offset: Sequence[float] = (0, 0, 0, 0, 0, 0),
@@ -43,10 +46,26 @@ class SimulatedController:
         inject: Iterable[str] = (),
         remote_control: bool = True,
         allow_non_loopback: bool = False,
+        profile: str = "e-series",
+        tracking: bool = False,
+        seed: int = 0,
+        motion_record_path: str | Path | None = None,
+        part_width_mm: float | None = None,
+        feedback_input: Sequence[int] | None = None,
     ):
         self.host = host
-        self.model = model
-        argv = ["--host", host, "--model", model, "--tcp-offset", *_numbers(tcp_offset)]
+        self.profile = profile
+        argv = ["--host", host, "--profile", profile, "--tcp-offset", *_numbers(tcp_offset)]
+        if model is not None:
+            argv += ["--model", model]
+        if tracking:
+            argv += ["--tracking", "--seed", str(seed)]
+        if motion_record_path is not None:
+            argv += ["--record-motions", str(motion_record_path)]
+        if part_width_mm is not None:
+            argv += ["--part-width-mm", repr(float(part_width_mm))]
+        if feedback_input is not None:
+            argv += ["--feedback-input", *(str(int(b)) for b in feedback_input)]
         if initial_q is not None:
             argv += ["--initial-q", *_numbers(initial_q)]
         if initial_flange_pose is not None:
@@ -73,11 +92,11 @@ class SimulatedController:
         RuntimeError for anything else that keeps the controller from starting.
         """
         env = dict(os.environ)
-        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_REPO_ROOT),
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_IMPORT_ROOT),
                                                           env.get("PYTHONPATH")]))
         process = subprocess.Popen(
             [sys.executable, "-m", "mocks.ur_controller", "--serve-stdio", *self._argv],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, cwd=_REPO_ROOT, env=env,
+            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
         )
         self._process = process
         first_line = self._read_line(_START_TIMEOUT_S)
@@ -120,8 +139,14 @@ class SimulatedController:
 
     @property
     def commands(self) -> list[dict[str, Any]]:
-        """Copy of the command record: one dict per motion or stop command, in order."""
+        """Copy of the command record: one dict per motion, stop or payload command, in order."""
         result: list[dict[str, Any]] = self._request({"op": "commands"})
+        return result
+
+    @property
+    def motions(self) -> list[dict[str, Any]]:
+        """Copy of the motion record: one dict per ended motion (controller time moving)."""
+        result: list[dict[str, Any]] = self._request({"op": "motions"})
         return result
 
     def snapshot(self) -> ControllerSnapshot:
@@ -132,7 +157,13 @@ class SimulatedController:
         }
         return ControllerSnapshot(**fields)
 
+    def set_part(self, width_mm: float | None) -> None:
+        """Script the part at the gripper: present with this width (mm), or absent (None).
+        A part slipping out at a given moment: inject `gripper-drop@move:K:FRACTION`."""
+        self._request({"op": "set_part", "width_mm": width_mm})
+
     def set_remote_control(self, enabled: bool) -> None:
+        """Switch remote/local control as on the pendant (e-series profile only)."""
         self._request({"op": "set_remote_control", "enabled": enabled})
 
     def _request(self, request: dict[str, Any]) -> Any:

@@ -1,7 +1,94 @@
-"""handeye-pick: camera-guided picks on Universal Robots arms."""
+"""handeye-pick: camera-guided picks on Universal Robots arms.
 
-from handeye_pick.cloud import transform_points
+The public names are imported on first use (a module-level ``__getattr__``), so ``import
+handeye_pick``, which every command and ``python -m handeye_pick.cli`` runs first, loads nothing
+but this file. The modules behind the names keep their own heavy imports (numba, matplotlib) inside
+the functions that need them.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-__all__ = ["__version__", "transform_points"]
+# Public name -> the module that defines it. A new export (e.g. "Cell": "handeye_pick.cell") is a
+# line here, its name in __all__ and its import under TYPE_CHECKING.
+_EXPORTS = {
+    "Cell": "handeye_pick.cell",
+    "Capture": "handeye_pick.cell",
+    "CellStatus": "handeye_pick.cell",
+    "PickResult": "handeye_pick.cell",
+    "NoFeasibleCandidate": "handeye_pick.cell",
+    "PreflightRefusal": "handeye_pick.cell",
+    "load_config": "handeye_pick.config",
+    "load_detection": "handeye_pick.detection",
+    "detection_from_point_mm": "handeye_pick.detection",
+    "Detection": "handeye_pick.detection",
+    "HandEyePickError": "handeye_pick.errors",
+    "InputError": "handeye_pick.errors",
+    "SafetyRefusal": "handeye_pick.errors",
+    "CellHalted": "handeye_pick.errors",
+    "RobotError": "handeye_pick.errors",
+    "RobotFault": "handeye_pick.errors",
+    "RobotConnectionError": "handeye_pick.errors",
+    "transform_points": "handeye_pick.cloud",
+}
+
+__all__ = [  # the same names as _EXPORTS (tests/unit/test_light_imports.py checks)
+    "Capture",
+    "Cell",
+    "CellHalted",
+    "CellStatus",
+    "Detection",
+    "HandEyePickError",
+    "InputError",
+    "NoFeasibleCandidate",
+    "PickResult",
+    "PreflightRefusal",
+    "RobotConnectionError",
+    "RobotError",
+    "RobotFault",
+    "SafetyRefusal",
+    "__version__",
+    "detection_from_point_mm",
+    "load_config",
+    "load_detection",
+    "transform_points",
+]
+
+if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ imports these
+    from handeye_pick.cell import (
+        Capture,
+        Cell,
+        CellStatus,
+        NoFeasibleCandidate,
+        PickResult,
+        PreflightRefusal,
+    )
+    from handeye_pick.cloud import transform_points
+    from handeye_pick.config import load_config
+    from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
+    from handeye_pick.errors import (
+        CellHalted,
+        HandEyePickError,
+        InputError,
+        RobotConnectionError,
+        RobotError,
+        RobotFault,
+        SafetyRefusal,
+    )
+
+
+def __getattr__(name: str) -> Any:
+    """Import a public name's module on first access (PEP 562)."""
+    if name not in _EXPORTS:
+        raise AttributeError(f"module 'handeye_pick' has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value  # later accesses find it without calling __getattr__
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

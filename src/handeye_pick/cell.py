@@ -384,6 +384,16 @@ class Cell:
         self._audit_capture(capture, request_id)
         return capture
 
+    def latch_flange_pose(self, *, request_id: str | None = None) -> Transform:
+        """``T_base_flange`` (m) where the arm stands, in either mode, moving nothing: waits
+        until the arm is steady and reads a fresh RTDE sample; audited as a ``capture``. A
+        hand-eye dataset needs the flange pose in both modes (``collect``)."""
+        self._require_not_halted()
+        self._cycle += 1
+        T_base_flange = self._steady_flange_pose()
+        self._audit_capture(self._register(T_base_flange, "latched"), request_id)
+        return T_base_flange
+
     def given_capture(self, T_base_flange: Transform, source: str) -> Capture:
         """Register a capture pose measured elsewhere (a detection file's ``capture``, Zivid's
         ``RobotTransform.yaml``, ``--capture-pose-ur``): ``T_base_flange`` (m) at acquisition."""
@@ -680,6 +690,16 @@ class Cell:
         return reached
 
     # --- checks ------------------------------------------------------------------------------
+
+    def check_pose(self, T_base_tcp: Transform) -> list[str]:
+        """Every pre-flight problem a moveL to ``T_base_tcp`` (m) would meet, moving nothing:
+        workspace box, tilt, motion caps, the controller's safety limits and IK. Empty when
+        the move would pass (``poses`` keeps only such targets)."""
+        try:
+            check_steps(self.config, [Move("target", T_base_tcp)], self.arm, self._fixed_verdicts)
+        except PreflightRefusal as refusal:
+            return [f"{r.name}: {r.detail}" for r in refusal.results if not r.passed]
+        return []
 
     def _require_not_halted(self) -> None:
         if self._halted is not None:

@@ -8,7 +8,6 @@ applied to a cloud must carry its translation in that same unit.
 
 from __future__ import annotations
 
-import functools
 from collections.abc import Callable
 from typing import Any
 
@@ -24,9 +23,65 @@ FloatArray = NDArray[np.floating[Any]]
 """A float32 or float64 array; the dtype of a cloud is kept through every operation here."""
 
 
-@functools.cache
-def _kernel() -> Callable[..., None]:
-    """The compiled transform loop; numba is imported here so ``import handeye_pick`` stays fast.
+JIT_AFTER_POINTS = 150_000_000
+"""Points a process transforms with numpy before it loads the numba kernel (30 Zivid 2+ clouds).
+
+Loading numba and the cached kernel costs a process time and memory (about a second and 130 MiB
+on a 2-core machine), after which the kernel saves a few ns a point over the numpy blocks.
+``benchmarks/cloud_transform.py`` measures both and prints the break-even. As when renting until
+the rent paid would have bought: numpy until the time the kernel would have saved is about its
+load, so a process never pays much more than twice the better choice in hindsight; a one-off
+command never loads numba, and a process that transforms cloud after cloud soon runs at memory
+speed.
+"""
+
+_BLOCK_POINTS = 65_536
+"""Points per block of the numpy kernel: its few block-sized buffers stay in a core's L2 cache."""
+
+_jit_kernel: Callable[..., None] | None = None
+_points_without_jit = 0  # transformed by numpy in this process so far
+
+
+def _transform_flat_in_place(xyz_flat: FloatArray, R: FloatArray, t: FloatArray) -> None:
+    """``x <- R x + t`` for each point of a contiguous flat cloud: numpy blocks, later numba."""
+    global _jit_kernel, _points_without_jit
+    if _jit_kernel is None:
+        _points_without_jit += xyz_flat.size // 3
+        if _points_without_jit < JIT_AFTER_POINTS:
+            _transform_numpy(xyz_flat, R, t)
+            return
+        _jit_kernel = _compile_kernel()
+    _jit_kernel(xyz_flat, R, t)
+
+
+def _transform_numpy(xyz_flat: FloatArray, R: FloatArray, t: FloatArray) -> None:
+    """The numba loop's arithmetic, ``((r0 x + r1 y) + r2 z) + t`` in the data's dtype, in blocks.
+
+    Each block is split into contiguous x, y and z rows first, so the ufuncs run on unit-stride
+    data; the buffers are reused, so the whole cloud is never copied. Same operations in the same
+    order as the numba loop: both kernels give the same bits.
+    """
+    points = xyz_flat.reshape(-1, 3)
+    size = min(len(points), _BLOCK_POINTS)
+    planes = np.empty((3, size), dtype=points.dtype)
+    total = np.empty(size, dtype=points.dtype)
+    term = np.empty(size, dtype=points.dtype)
+    for start in range(0, len(points), _BLOCK_POINTS):
+        block = points[start : start + _BLOCK_POINTS]
+        n = len(block)
+        x, y, z = planes[:, :n]
+        acc, tmp = total[:n], term[:n]
+        np.copyto(planes[:, :n], block.T)
+        for row in range(3):
+            np.multiply(x, R[row, 0], out=acc)
+            acc += np.multiply(y, R[row, 1], out=tmp)
+            acc += np.multiply(z, R[row, 2], out=tmp)
+            acc += t[row]
+            block[:, row] = acc
+
+
+def _compile_kernel() -> Callable[..., None]:
+    """The compiled transform loop; numba is imported here, by the first call that needs it.
 
     One fused pass over the points in place: each point is read once and written back, so the
     loop runs at memory bandwidth (a plain copy's speed or better: it touches one buffer, a copy
@@ -101,8 +156,10 @@ def transform_points(points: FloatArray, T: ArrayLike, out: FloatArray | None = 
         The points in frame a, same shape and dtype as ``points`` (``out`` when given). float32
         data is transformed in float32 arithmetic (relative error about 1e-7 of the coordinates).
 
-    Speed: in place runs at about the speed of ``np.copyto`` of the cloud; out of place is a copy
-    plus that. The first call in a process imports numba (and compiles, once per machine).
+    Speed: numpy in blocks (several times ``np.copyto`` of the cloud) until this process
+    has transformed ``JIT_AFTER_POINTS`` points, then a numba kernel that runs in place at about
+    the speed of the copy; the call that crosses the line imports numba (and compiles, once per
+    machine). Out of place is a copy plus that.
 
     Raises:
         InputError: ``points`` or ``out`` has the wrong type, shape, dtype, or is read-only.
@@ -133,7 +190,7 @@ def transform_points(points: FloatArray, T: ArrayLike, out: FloatArray | None = 
         work = out
     else:
         work = np.array(points, order="C")
-    _kernel()(work.reshape(-1), R, t)
+    _transform_flat_in_place(work.reshape(-1), R, t)
     if work is not out:
         np.copyto(out, work)
     return out

@@ -46,6 +46,7 @@ MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
 MAX_REACH_M = MAX_WORKSPACE_MM / 1000.0  # a named or place TCP pose farther out is in mm
 MAX_JOINT_RAD = 2.0 * math.pi  # UR joint range is +-2*pi: a larger value is in degrees
 MIN_WORKSPACE_EXTENT_MM = 10.0  # a box thinner than 1 cm is a box written in metres
+NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 STANDARD_OUTPUTS = 8  # standard digital outputs 0-7 on the control box
 TOOL_OUTPUTS = 2  # tool digital outputs 0-1 on the tool flange connector
 
@@ -617,21 +618,26 @@ def _poses(top: Fields) -> tuple[NamedPose, ...]:
     for name in data:
         if not isinstance(name, str) or not name.strip():
             top.fail("poses", f"pose names must be non-empty strings, got {name!r}")
-        pose = top.section("poses", data.keys()).section(name, ("joints_rad", "tcp_pose"))
-        if pose.has("joints_rad") == pose.has("tcp_pose"):
-            pose.fail("", "give exactly one of joints_rad (6 joints, rad) or tcp_pose (m, rad)")
-        if pose.has("joints_rad"):
-            q = pose.vector("joints_rad", 6)
-            if np.any(np.abs(q) > MAX_JOINT_RAD):
-                pose.fail(
-                    "joints_rad",
-                    f"joint positions must lie within +-2*pi rad, got {q.tolist()} "
-                    "(degrees given?)",
-                )
-            poses.append(NamedPose(name, tuple(float(v) for v in q), None))
-        else:
-            poses.append(NamedPose(name, None, _pose_vector(pose, "tcp_pose", MAX_REACH_M)))
+        pose = top.section("poses", data.keys()).section(name, NAMED_POSE_KEYS)
+        poses.append(named_pose(pose, name))
     return tuple(poses)
+
+
+def named_pose(pose: Fields, name: str) -> NamedPose:
+    """One pose entry, opened with ``NAMED_POSE_KEYS``: exactly one of ``joints_rad`` (six
+    joints, rad, moveJ) or ``tcp_pose`` (``T_base_tcp`` as a UR vector, m and rad, moveL), each
+    checked for a unit mix-up. The calibration pose list (``pose_list``) reads its entries so."""
+    if pose.has("joints_rad") == pose.has("tcp_pose"):
+        pose.fail("", "give exactly one of joints_rad (6 joints, rad) or tcp_pose (m, rad)")
+    if pose.has("joints_rad"):
+        q = pose.vector("joints_rad", 6)
+        if np.any(np.abs(q) > MAX_JOINT_RAD):
+            pose.fail(
+                "joints_rad",
+                f"joint positions must lie within +-2*pi rad, got {q.tolist()} (degrees given?)",
+            )
+        return NamedPose(name, tuple(float(v) for v in q), None)
+    return NamedPose(name, None, _pose_vector(pose, "tcp_pose", MAX_REACH_M))
 
 
 def _place(top: Fields) -> PlaceConfig:

@@ -8,16 +8,19 @@ Conventions used across the package:
   clouds, command-line points) and are converted where they are read or written.
 - A UR pose vector is ``[x, y, z, rx, ry, rz]``: metres and a rotation vector in radians, exactly
   what the teach pendant and RTDE show.
+
+Rotation conversions are closed forms in numpy, not scipy's ``Rotation``: importing
+``scipy.spatial`` takes about 0.4 to 0.9 s (it pulls in ``scipy.sparse`` and ``scipy.linalg``),
+more than everything else a command like ``convert`` or ``point`` does.
 """
 
 from __future__ import annotations
 
-import warnings
+import math
 from typing import Literal
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 from handeye_pick.errors import TransformError
 
@@ -151,7 +154,7 @@ def _vector(values: ArrayLike, length: int, what: str) -> NDArray[np.float64]:
 def ur_pose_to_matrix(pose_m_rad: ArrayLike) -> Transform:
     """UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad) -> 4x4 transform (m)."""
     v = _vector(pose_m_rad, 6, "UR pose vector [x, y, z, rx, ry, rz]")
-    return make_transform(Rotation.from_rotvec(v[3:]).as_matrix(), v[:3])
+    return make_transform(rotation_from_rotvec(v[3:]), v[:3])
 
 
 def matrix_to_ur_pose(T: Transform) -> NDArray[np.float64]:
@@ -168,21 +171,79 @@ def ur_pose_list(T: Transform) -> list[float]:
 
 
 # --- orientation representations -----------------------------------------------------------------
+#
+# Quaternions are (x, y, z, w) here, unit length. Every conversion from a matrix goes through
+# _quaternion_from_matrix, which also maps a matrix that is orthonormal only within
+# ROTATION_TOLERANCE (float32 files) onto an exact rotation, as scipy's from_matrix does.
+
+_SMALL_ANGLE = 1e-3
+"""Below this angle (rad) sin(a/2)/a and a/sin(a/2) use their Taylor series (error < 1e-19)."""
+
+GIMBAL_LOCK = 1e-7
+"""Euler angles: the middle angle within this (rad) of its singular value counts as gimbal lock."""
 
 
-def _scipy_rotation(R: ArrayLike, target: str) -> Rotation:
-    # scipy's from_matrix silently repairs a non-rotation; refuse it first.
-    return Rotation.from_matrix(validate_rotation(R, f"rotation to convert to {target}"))
+def _quaternion_from_rotvec(rotvec: NDArray[np.float64]) -> NDArray[np.float64]:
+    angle = float(np.linalg.norm(rotvec))
+    if angle < _SMALL_ANGLE:
+        sin_half_over_angle = 0.5 - angle**2 / 48.0 + angle**4 / 3840.0
+    else:
+        sin_half_over_angle = math.sin(angle / 2.0) / angle
+    return np.array([*(rotvec * sin_half_over_angle), math.cos(angle / 2.0)])
+
+
+def _matrix_from_unit_quaternion(q: NDArray[np.float64]) -> NDArray[np.float64]:
+    x, y, z, w = (float(c) for c in q)
+    return np.array(
+        [
+            [1.0 - 2.0 * (y * y + z * z), 2.0 * (x * y - z * w), 2.0 * (x * z + y * w)],
+            [2.0 * (x * y + z * w), 1.0 - 2.0 * (x * x + z * z), 2.0 * (y * z - x * w)],
+            [2.0 * (x * z - y * w), 2.0 * (y * z + x * w), 1.0 - 2.0 * (x * x + y * y)],
+        ]
+    )
+
+
+def _quaternion_from_matrix(R: ArrayLike, target: str) -> NDArray[np.float64]:
+    """The unit quaternion (x, y, z, w) of a validated rotation, with w >= 0.
+
+    Of the four squared components (each 4 q_k^2 is a sum of diagonal entries) the largest is
+    taken by its square root and the other three from off-diagonal sums or differences divided
+    by it: never a division by less than 1/2, so the result is exact at every angle, pi included.
+    """
+    # Refused rather than repaired: a scaled or sheared matrix is a wrong file, not a rotation.
+    M = validate_rotation(R, f"rotation to convert to {target}")
+    trace = M[0, 0] + M[1, 1] + M[2, 2]
+    largest = int(np.argmax([M[0, 0], M[1, 1], M[2, 2], trace]))
+    q = np.empty(4)
+    if largest == 3:
+        q[:] = [M[2, 1] - M[1, 2], M[0, 2] - M[2, 0], M[1, 0] - M[0, 1], 1.0 + trace]
+    else:
+        i, j, k = largest, (largest + 1) % 3, (largest + 2) % 3
+        q[i] = 1.0 - trace + 2.0 * M[i, i]
+        q[j] = M[j, i] + M[i, j]
+        q[k] = M[k, i] + M[i, k]
+        q[3] = M[k, j] - M[j, k]
+    q /= np.linalg.norm(q)
+    return -q if q[3] < 0.0 else q
 
 
 def rotation_from_rotvec(rotvec_rad: ArrayLike) -> NDArray[np.float64]:
     """Rotation vector (axis times angle, rad) -> 3x3 rotation matrix."""
-    return np.asarray(Rotation.from_rotvec(_vector(rotvec_rad, 3, "rotation vector")).as_matrix())
+    v = _vector(rotvec_rad, 3, "rotation vector")
+    return _matrix_from_unit_quaternion(_quaternion_from_rotvec(v))
 
 
 def rotation_to_rotvec(R: ArrayLike) -> NDArray[np.float64]:
     """3x3 rotation matrix -> rotation vector (rad), angle in [0, pi]; exact near pi and zero."""
-    return np.asarray(_scipy_rotation(R, "rotation vector").as_rotvec())
+    q = _quaternion_from_matrix(R, "rotation vector")
+    sin_half = float(np.linalg.norm(q[:3]))
+    angle = 2.0 * math.atan2(sin_half, float(q[3]))  # w >= 0, so the angle is in [0, pi]
+    if angle < _SMALL_ANGLE:
+        angle_over_sin_half = 2.0 + angle**2 / 12.0 + 7.0 * angle**4 / 2880.0
+    else:
+        angle_over_sin_half = angle / sin_half
+    out: NDArray[np.float64] = q[:3] * angle_over_sin_half
+    return out
 
 
 def rotation_from_quaternion(q: ArrayLike, order: QuaternionOrder) -> NDArray[np.float64]:
@@ -199,17 +260,21 @@ def rotation_from_quaternion(q: ArrayLike, order: QuaternionOrder) -> NDArray[np
     norm = float(np.linalg.norm(v))
     if abs(norm - 1.0) > 1e-3:
         raise TransformError(f"quaternion ({order}) must have unit norm, got {norm:.6f}")
-    return np.asarray(Rotation.from_quat(v / norm).as_matrix())
+    return _matrix_from_unit_quaternion(v / norm)
 
 
 def rotation_to_quaternion(R: ArrayLike, order: QuaternionOrder) -> NDArray[np.float64]:
-    """3x3 rotation matrix -> unit quaternion in the named order, with w >= 0."""
-    q = np.asarray(_scipy_rotation(R, f"quaternion ({order})").as_quat(canonical=True))
-    if order == "wxyz":
-        return np.roll(q, 1)
-    if order != "xyzw":
+    """3x3 rotation matrix -> unit quaternion in the named order, with w >= 0.
+
+    Of q and -q (the same rotation) the one with w > 0; at exactly 180 degrees (w = 0) the one
+    whose first non-zero component is positive, as scipy's ``as_quat(canonical=True)``.
+    """
+    if order not in ("xyzw", "wxyz"):
         raise TransformError(f"unknown quaternion order {order!r}: expected 'xyzw' or 'wxyz'")
-    return q
+    q = _quaternion_from_matrix(R, f"quaternion ({order})")
+    if q[3] == 0.0 and q[np.flatnonzero(q)[0]] < 0.0:
+        q = -q
+    return np.roll(q, 1) if order == "wxyz" else q
 
 
 def check_euler_sequence(sequence: str) -> str:
@@ -235,24 +300,90 @@ def _check_angle_unit(unit: str) -> bool:
     return unit == "deg"
 
 
+def _intrinsic_axes(sequence: str) -> list[int]:
+    """Axis indices (x 0, y 1, z 2) of the sequence as intrinsic rotations, applied left to right.
+
+    Extrinsic 'xyz' with angles (a, b, c) is R_z(c) R_y(b) R_x(a), which is intrinsic 'ZYX' with
+    angles (c, b, a): extrinsic sequences are handled as their reversal.
+    """
+    axes = ["xyz".index(axis) for axis in check_euler_sequence(sequence).lower()]
+    return axes if sequence.isupper() else axes[::-1]
+
+
+def _axis_rotation(axis: int, angle: float) -> NDArray[np.float64]:
+    """The 3x3 rotation by ``angle`` (rad) about base axis ``axis`` (x 0, y 1, z 2)."""
+    j, k = (axis + 1) % 3, (axis + 2) % 3
+    R = np.eye(3)
+    R[j, j] = R[k, k] = math.cos(angle)
+    R[k, j] = math.sin(angle)
+    R[j, k] = -R[k, j]
+    return R
+
+
 def rotation_from_euler(angles: ArrayLike, sequence: str, unit: AngleUnit) -> NDArray[np.float64]:
     """Euler / roll-pitch-yaw angles with an explicit sequence and angle unit -> 3x3 rotation."""
     degrees = _check_angle_unit(unit)
     v = _vector(angles, 3, f"Euler angles ({sequence}, {unit})")
-    R = Rotation.from_euler(check_euler_sequence(sequence), v, degrees=degrees)
-    return np.asarray(R.as_matrix())
+    axes = _intrinsic_axes(sequence)
+    radians = np.radians(v) if degrees else v
+    if sequence.islower():
+        radians = radians[::-1]
+    R = np.eye(3)
+    for axis, angle in zip(axes, radians, strict=True):
+        R = R @ _axis_rotation(axis, float(angle))
+    return R
 
 
 def rotation_to_euler(R: ArrayLike, sequence: str, unit: AngleUnit) -> NDArray[np.float64]:
     """3x3 rotation -> Euler angles in the named sequence and unit.
 
-    At gimbal lock (middle angle within ~1e-7 rad of its singular value) only the sum or
-    difference of the outer angles is defined: the third angle is set to 0, as scipy does, and
-    the angles still give back the rotation within 1e-6 rad.
+    Ranges as scipy gives them: outer angles in [-pi, pi], the middle one in [-pi/2, pi/2] for
+    three different axes (Tait-Bryan, e.g. xyz) and in [0, pi] for a repeated axis (proper
+    Euler, e.g. zxz). At gimbal lock (middle angle within ``GIMBAL_LOCK`` rad of its singular
+    value) only the sum or difference of the outer angles is defined: the third angle of the
+    sequence as written is set to 0, as scipy does, and the angles still give back the rotation
+    within 1e-6 rad.
     """
     degrees = _check_angle_unit(unit)
-    rot = _scipy_rotation(R, f"Euler angles ({sequence}, {unit})")
-    with warnings.catch_warnings():
-        # The documented gimbal-lock choice above is not news to the caller.
-        warnings.filterwarnings("ignore", message="Gimbal lock detected", category=UserWarning)
-        return np.asarray(rot.as_euler(check_euler_sequence(sequence), degrees=degrees))
+    axes = _intrinsic_axes(sequence)
+    q = _quaternion_from_matrix(R, f"Euler angles ({sequence}, {unit})")
+    M = _matrix_from_unit_quaternion(q)
+    # Extrinsic sequences were reversed, so the angle written third is the first intrinsic one.
+    zero_first = sequence.islower()
+    angles = np.array(_intrinsic_euler(M, axes, zero_first))
+    if sequence.islower():
+        angles = angles[::-1]
+    return np.degrees(angles) if degrees else angles
+
+
+def _intrinsic_euler(M: NDArray[np.float64], axes: list[int], zero_first: bool) -> list[float]:
+    """Angles (a, b, c) with ``M = R_i(a) R_j(b) R_k(c)``, ``(i, j, k) = axes``.
+
+    Read off one column and one row of M. With ``s`` the sign of the axis permutation
+    (``e_i x e_j = s e_o``, ``o`` the axis other than i and j), for Tait-Bryan (k = o):
+    column k is ``(s sin b, -s sin a cos b, cos a cos b)`` in rows (i, j, k) and row i is
+    ``(cos b cos c, -s cos b sin c, s sin b)`` in columns (i, j, k). For proper Euler (k = i):
+    column i is ``(cos b, sin a sin b, -s cos a sin b)`` in rows (i, j, o) and row i is
+    ``(cos b, sin b sin c, s sin b cos c)`` in columns (i, j, o). At gimbal lock the angle
+    named by ``zero_first`` (a, else c) is 0 and the other comes from row or column j.
+    """
+    i, j, k = axes
+    o = 3 - i - j
+    s = 1.0 if (j - i) % 3 == 1 else -1.0
+    if k != i:  # Tait-Bryan
+        cos_b = math.hypot(M[j, k], M[k, k])
+        b = math.atan2(s * M[i, k], cos_b)
+        locked = cos_b <= GIMBAL_LOCK
+        if not locked:
+            return [math.atan2(-s * M[j, k], M[k, k]), b, math.atan2(-s * M[i, j], M[i, i])]
+        first_zero_c = math.atan2(s * M[j, i], M[j, j])
+    else:  # proper Euler
+        sin_b = math.hypot(M[j, i], M[o, i])
+        b = math.atan2(sin_b, M[i, i])
+        locked = sin_b <= GIMBAL_LOCK
+        if not locked:
+            return [math.atan2(M[j, i], -s * M[o, i]), b, math.atan2(M[i, j], s * M[i, o])]
+        first_zero_c = math.atan2(-s * M[j, o], M[j, j])
+    if zero_first:
+        return [0.0, b, first_zero_c]
+    return [math.atan2(s * M[o, j], M[j, j]), b, 0.0]

@@ -23,7 +23,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from handeye_pick.errors import CalibrationError
 
@@ -55,6 +54,8 @@ def motion_spread(R_robot: NDArray[np.float64], numbers: Sequence[int]) -> Motio
         raise ValueError(f"need N >= 2 rotations of shape (N, 3, 3), got {R_robot.shape}")
     first, second = np.triu_indices(count, k=1)
     relative = np.einsum("nji,njk->nik", R_robot[first], R_robot[second])  # R_i^T R_j
+    from scipy.spatial.transform import Rotation  # here: the CLI must start without scipy
+
     rotvecs = Rotation.from_matrix(relative).as_rotvec()
     angles = np.linalg.norm(rotvecs, axis=1)
     best = int(np.argmax(angles))

@@ -53,10 +53,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.errors import CalibrationError
@@ -84,6 +84,13 @@ Stack = NDArray[np.float64]
 _STEP = 1e-6
 """Finite-difference step (m, rad) for propagating the measurement errors."""
 
+
+
+def _Rotation() -> Any:  # scipy has no type information
+    """scipy's Rotation, imported on first use: the CLI must start without scipy."""
+    from scipy.spatial.transform import Rotation
+
+    return Rotation
 
 @dataclass(frozen=True)
 class MeasurementNoise:
@@ -383,7 +390,7 @@ class _Problem:
 
     def _perturb_robot(self, error: NDArray[np.float64]) -> tuple[Stack, Stack]:
         """``A`` and ``B`` with ``T_base_flange`` moved by ``error`` (m, rad), flange frame."""
-        E = make_transform(Rotation.from_rotvec(error[3:]).as_matrix(), error[:3])
+        E = make_transform(_Rotation().from_rotvec(error[3:]).as_matrix(), error[:3])
         if self.mode is HandEyeMode.EYE_IN_HAND:
             return self.A @ E, self.B  # A = T_base_flange
         return invert(E) @ self.A, self.B  # A = inv(T_base_flange)
@@ -393,7 +400,7 @@ class _Problem:
         (m), its rotation about the object's origin (rad)."""
         B = self.B.copy()
         B[:, :3, 3] += error[:3]
-        B[:, :3, :3] = B[:, :3, :3] @ Rotation.from_rotvec(error[3:]).as_matrix()
+        B[:, :3, :3] = B[:, :3, :3] @ _Rotation().from_rotvec(error[3:]).as_matrix()
         return self.A, B
 
     def _weighted(self, X: Transform, Y: Transform, noise: MeasurementNoise) -> NDArray[np.float64]:
@@ -403,7 +410,7 @@ class _Problem:
     def _consensus(self, X: Transform) -> Transform:
         """Mean of the object's poses through every chain: the start for ``Y``."""
         chain = self.A @ X @ self.B
-        R = Rotation.from_matrix(chain[:, :3, :3]).mean().as_matrix()
+        R = _Rotation().from_matrix(chain[:, :3, :3]).mean().as_matrix()
         return make_transform(R, chain[:, :3, 3].mean(axis=0))
 
     def _pair_residuals(self, X: Transform, Y: Transform) -> tuple[PairResidual, ...]:
@@ -424,7 +431,7 @@ def _raw_residuals(A: Stack, X: Transform, B: Stack, Y: NDArray[np.float64]) -> 
     difference (m, Y's frame)."""
     chain = A @ X @ B
     R_Y_T = np.swapaxes(Y[..., :3, :3], -1, -2)
-    rotation = Rotation.from_matrix(R_Y_T @ chain[:, :3, :3]).as_rotvec()
+    rotation = _Rotation().from_matrix(R_Y_T @ chain[:, :3, :3]).as_rotvec()
     return np.concatenate([rotation, chain[:, :3, 3] - Y[..., :3, 3]], axis=1)
 
 
@@ -433,8 +440,8 @@ def _apply(
 ) -> tuple[Transform, Transform]:
     """X and Y corrected by ``params``: rotation vectors applied on the right, translations
     added (m)."""
-    dX = Rotation.from_rotvec(params[0:3]).as_matrix()
-    dY = Rotation.from_rotvec(params[6:9]).as_matrix()
+    dX = _Rotation().from_rotvec(params[0:3]).as_matrix()
+    dY = _Rotation().from_rotvec(params[6:9]).as_matrix()
     return (
         make_transform(X0[:3, :3] @ dX, X0[:3, 3] + params[3:6]),
         make_transform(Y0[:3, :3] @ dY, Y0[:3, 3] + params[9:12]),
@@ -443,7 +450,7 @@ def _apply(
 
 def _nearest_rigid(T: Transform) -> Transform:
     """``T`` with its rotation replaced by the nearest rotation (a start need not be exact)."""
-    return make_transform(Rotation.from_matrix(T[:3, :3]).as_matrix(), T[:3, 3])
+    return make_transform(_Rotation().from_matrix(T[:3, :3]).as_matrix(), T[:3, 3])
 
 
 def _stands_out(scores: NDArray[np.float64], floor: float) -> NDArray[np.bool_]:

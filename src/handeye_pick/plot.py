@@ -7,22 +7,25 @@ z blue), the straight-line TCP path through the targets, the workspace box and, 
 subsample of the point cloud. Three views (perspective, top, side) with equal axis scales in mm.
 
 Rendering is headless: a bare matplotlib ``Figure`` drawn by the Agg canvas, no pyplot state.
+matplotlib is imported by ``render_scene`` only: it takes about half a second, and the commands
+that import this module (for ``Scene``) must start without it when they draw nothing.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, TypeGuard
 
 import numpy as np
-from matplotlib.axes import Axes
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
-from mpl_toolkits.mplot3d.axes3d import Axes3D
 from numpy.typing import NDArray
 
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from mpl_toolkits.mplot3d.axes3d import Axes3D
 
 FIGURE_SIZE_IN = (18.0, 7.0)
 FIGURE_DPI = 100
@@ -113,6 +116,9 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
     half = max(float(np.max(hi - lo)) / 2.0 * 1.1, 100.0)
     triad_mm = 2.0 * half * _TRIAD_FRACTION
 
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=FIGURE_SIZE_IN, dpi=FIGURE_DPI, layout="constrained")
     FigureCanvasAgg(fig)
     persp = fig.add_subplot(1, 3, 1, projection="3d")
@@ -184,7 +190,7 @@ def _scatter(ax: Axes, points_mm: NDArray[np.float64], dims: list[int]) -> None:
     z = points_mm[:, 2]
     # Start the grey ramp below the lowest point so the table is light grey, not white.
     low = float(z.min()) - 0.3 * max(float(np.ptp(z)), 1.0) if len(z) else 0.0
-    if isinstance(ax, Axes3D):
+    if _is_3d(ax):
         ax.scatter(*points_mm.T, s=3, c=z, cmap="Greys", vmin=low, alpha=0.6)
     else:
         ax.scatter(
@@ -200,10 +206,16 @@ def _scatter(ax: Axes, points_mm: NDArray[np.float64], dims: list[int]) -> None:
 
 def _label(ax: Axes, origin_mm: NDArray[np.float64], dims: list[int], label: str) -> None:
     """A frame's name next to its origin on one view."""
-    if isinstance(ax, Axes3D):
+    if _is_3d(ax):
         ax.text(origin_mm[0], origin_mm[1], origin_mm[2], f" {label}", fontsize=8)
     else:
         ax.text(origin_mm[dims[0]], origin_mm[dims[1]], f" {label}", fontsize=8)
+
+
+def _is_3d(ax: Axes) -> TypeGuard[Axes3D]:
+    from mpl_toolkits.mplot3d.axes3d import Axes3D  # loaded already by render_scene
+
+    return isinstance(ax, Axes3D)
 
 
 def _box_edges(

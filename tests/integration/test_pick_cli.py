@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration import load_hand_eye
+from handeye_pick.calibration import HandEyeMode, load_hand_eye
 from handeye_pick.detection import load_detection
-from handeye_pick.geometry import ur_pose_to_matrix
+from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 
@@ -448,3 +448,32 @@ def test_bad_input_exits_2_without_contacting_the_robot(
     assert message in result.stderr
     assert result.stderr.count("\n") == 1  # one line, no traceback
     assert not (tmp_path / "picks.jsonl").exists()
+
+
+def test_a_cb3_controller_picks_without_remote_control(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # PolyScope 3 has no Remote Control mode and answers the dashboard's question with an error:
+    # the readiness check does not apply there, every other check does.
+    ctl = sim_controller(profile="cb3", model="ur5", tcp_offset=TCP_OFFSET, instant=True)
+    T_base_flange = ur_pose_to_matrix(ctl.snapshot().flange_pose)
+    T_flange_cam = load_hand_eye(DEMO / "hand_eye.yaml", HandEyeMode.EYE_IN_HAND, "mm").T_cal
+    object_base_m = T_base_flange[:3, 3] + np.array([0.03, 0.02, -0.40])
+    p_cam_mm = transform_point(invert(T_base_flange @ T_flange_cam), object_base_m) * 1000.0
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--xyz", *(f"{v:.6f}" for v in p_cam_mm)
+    )
+    assert status == 0, report
+    assert len(motion_commands(ctl)) == 3
+
+
+def test_a_controller_without_a_dashboard_is_refused_with_the_reason(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(profile="polyscope-x", tcp_offset=TCP_OFFSET, instant=True)
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 4, report
+    assert "PolyScope X" in report["error"]
+    assert motion_commands(ctl) == []

@@ -164,7 +164,7 @@ def test_degenerate_data_exits_2(tmp_path: Path, capsys: pytest.CaptureFixture[s
 
 def test_the_cli_starts_without_opencv_or_scipy_optimize() -> None:
     code = (
-        "import sys; from handeye_pick.cli import build_parser; build_parser(); "
+        "import sys; from handeye_pick.cli import parser_with; parser_with(); "
         "print(sorted(m for m in ('cv2', 'scipy.optimize') if m in sys.modules))"
     )
     result = subprocess.run(

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -244,3 +246,66 @@ def test_a_wrist_camera_file_used_as_a_fixed_camera_is_refused(
     assert "camera-away-from-base: the camera is 112 mm from the robot base origin" in err
     assert "set --mode eye-in-hand" in err
     assert not (tmp_path / "base.npy").exists()
+
+
+# Run under a 1 GiB address-space limit: reading a hostile file's data, or allocating what its
+# header claims (terabytes), would end in a MemoryError (exit 1), not in exit 2 and one line.
+_BOUNDED = """
+import resource, sys
+resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30))
+from handeye_pick.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+@pytest.mark.parametrize("name", ["claims-1e12.npy", "claims-1e10.ply"])
+@pytest.mark.parametrize("command", ["cloud", "point"])
+def test_header_claiming_terabytes_exits_2_with_one_line_in_bounded_memory(
+    tmp_path: Path, eye_to_hand_file: Path, name: str, command: str
+) -> None:
+    path = tmp_path / name
+    if name.endswith(".npy"):
+        with path.open("wb") as file:  # a header claiming 10^12 float32 points, then 48 bytes
+            header = {"descr": "<f4", "fortran_order": False, "shape": (10**6, 10**6, 3)}
+            np.lib.format.write_array_header_1_0(file, header)
+            file.write(bytes(48))
+    else:
+        path.write_bytes(
+            b"ply\nformat binary_little_endian 1.0\nelement vertex 10000000000\n"
+            b"property float x\nproperty float y\nproperty float z\nend_header\n" + bytes(48)
+        )
+    hand_eye = ["--mode", "eye-to-hand", "--calibration", str(eye_to_hand_file)]
+    if command == "cloud":
+        argv = ["cloud", *hand_eye, str(path), str(tmp_path / "out.ply")]
+    else:
+        argv = ["point", *hand_eye, "--cloud", str(path), "--pixel", "0", "0"]
+
+    result = subprocess.run(
+        [sys.executable, "-c", _BOUNDED, *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,  # a hang guard, not a timing assertion
+        check=False,
+    )
+
+    assert result.returncode == 2, result.stderr
+    assert result.stderr.startswith(f"error: read cloud {path}: not a readable")
+    assert result.stderr.count("\n") == 1
+    assert "declares" in result.stderr
+    assert not (tmp_path / "out.ply").exists()
+
+
+def test_in_and_out_may_be_the_same_file(tmp_path: Path, eye_to_hand_file: Path) -> None:
+    # OUT is written next to itself and renamed into place, so IN is read whole first.
+    xyz = camera_cloud(rows=40, cols=50)
+    path = tmp_path / "cloud.npy"
+    write_cloud(path, PointCloud(xyz=xyz))
+
+    hand_eye = ["--mode", "eye-to-hand", "--calibration", str(eye_to_hand_file)]
+    status = main(["cloud", *hand_eye, str(path), str(path)])
+
+    assert status == 0
+    p = xyz.astype(np.float64)
+    expected = np.stack([p[..., 1] + 500, p[..., 0] - 40, 1200 - p[..., 2]], axis=-1)
+    assert_transformed(read_cloud(path).xyz, expected)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["EyeToHandTransform.yaml", "cloud.npy"]

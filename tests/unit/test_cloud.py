@@ -1,4 +1,5 @@
-"""transform_points against a float64 reference, in place and out of place; pick_point by pixel."""
+"""transform_points against a float64 reference, in place and out of place, both kernels (numpy
+blocks and numba) bit for bit; pick_point by pixel."""
 
 from __future__ import annotations
 
@@ -16,6 +17,7 @@ from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 import handeye_pick
+from handeye_pick import cloud
 from handeye_pick.cloud import pick_point, transform_points
 from handeye_pick.errors import DetectionError, InputError, TransformError
 from handeye_pick.geometry import make_transform
@@ -125,6 +127,41 @@ def test_full_size_organized_cloud_with_missing_points(dtype: type[np.floating[A
     transform_points(points, T, out=points)
 
     assert_close_to_reference(points, original, T)
+
+
+@pytest.mark.parametrize("dtype", DTYPES)
+@settings(deadline=None, max_examples=40)  # the first example may compile the numba kernel
+@given(data=st.data())
+def test_numba_kernel_gives_the_numpy_kernels_bits(
+    dtype: type[np.floating[Any]], data: st.DataObject
+) -> None:
+    points = data.draw(clouds(dtype))
+    T = data.draw(rigid_transforms())
+    R, t = T[:3, :3].astype(dtype), T[:3, 3].astype(dtype)
+    by_numpy, by_numba = points.copy(), points.copy()
+
+    cloud._transform_numpy(by_numpy.reshape(-1), R, t)
+    cloud._compile_kernel()(by_numba.reshape(-1), R, t)
+
+    assert by_numpy.tobytes() == by_numba.tobytes()  # NaN payloads included
+
+
+def test_a_process_loads_numba_once_it_has_transformed_jit_after_points(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(cloud, "JIT_AFTER_POINTS", 100)
+    monkeypatch.setattr(cloud, "_points_without_jit", 0)
+    monkeypatch.setattr(cloud, "_jit_kernel", None)
+    points = np.random.default_rng(2).uniform(-500.0, 500.0, (60, 3))
+    T = make_transform(Rotation.from_rotvec([0.1, 0.2, 0.3]).as_matrix(), [1.0, 2.0, 3.0])
+
+    first = transform_points(points, T)
+    assert cloud._jit_kernel is None  # 60 points: numpy
+    second = transform_points(points, T)
+    assert cloud._jit_kernel is not None  # 120 points: numba from here on
+
+    np.testing.assert_array_equal(first, second)
+    assert_close_to_reference(second, points, T)
 
 
 def test_explicit_out_array_is_filled_and_returned() -> None:
@@ -294,6 +331,8 @@ def test_benchmark_script_runs_on_a_tiny_cloud() -> None:
             "5",
             "--repeats",
             "2",
+            "--load-repeats",
+            "1",
         ],
         capture_output=True,
         text=True,

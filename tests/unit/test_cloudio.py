@@ -11,7 +11,15 @@ import pytest
 from numpy.typing import NDArray
 from plyfile import PlyData, PlyElement
 
-from handeye_pick.cloudio import PointCloud, read_cloud, write_cloud
+from handeye_pick import cloudio
+from handeye_pick.cloudio import (
+    CloudLayout,
+    CloudWriter,
+    PointCloud,
+    open_cloud,
+    read_cloud,
+    write_cloud,
+)
 from handeye_pick.errors import DetectionError, InputError
 
 
@@ -238,6 +246,22 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
             b"end_header\n",
             "no 'vertex' element",
         ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty list uchar int ids\nend_header\n1 2 3 2 7 8\n",
+            "vertices with list properties are not read",
+        ),
+        (
+            b"ply\nformat binary_little_endian 1.0\nelement face 1\n"
+            b"property list uchar int vertex_indices\nelement vertex 1\nproperty float x\n"
+            b"property float y\nproperty float z\nend_header\n" + bytes(1 + 12),
+            "list properties before the vertices is not read",
+        ),
+        (
+            b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+            b"property float z\nproperty float x\nend_header\n1 2 3 4\n",
+            "repeats property 'x'",
+        ),
     ],
     ids=[
         "empty",
@@ -248,6 +272,9 @@ def test_unsupported_suffix(tmp_path: Path) -> None:
         "partial-colour",
         "float-colour",
         "no-vertex",
+        "vertex-list",
+        "binary-list-before-vertices",
+        "repeated-property",
     ],
 )
 def test_bad_ply(tmp_path: Path, content: bytes, message: str) -> None:
@@ -274,17 +301,21 @@ def test_bad_npy_array(tmp_path: Path, array: NDArray[Any], message: str) -> Non
 
 
 @pytest.mark.parametrize(
-    "write",
+    ("write", "message"),
     [
-        lambda path: np.save(path, np.array([{"x": 1}], dtype=object), allow_pickle=True),
-        lambda path: path.write_text("1 2 3\n"),
+        # Refused from the header, before anything is unpickled.
+        (
+            lambda path: np.save(path, np.array([{"x": 1}], dtype=object), allow_pickle=True),
+            "float32 or float64 xyz, got object",
+        ),
+        (lambda path: path.write_text("1 2 3\n"), r"not a readable \.npy"),
     ],
     ids=["pickled", "text"],
 )
-def test_unreadable_npy(tmp_path: Path, write: Any) -> None:
+def test_unreadable_npy(tmp_path: Path, write: Any, message: str) -> None:
     path = tmp_path / "bad.npy"
     write(path)
-    with pytest.raises(DetectionError, match=r"not a readable \.npy"):
+    with pytest.raises(DetectionError, match=message):
         read_cloud(path)
 
 
@@ -312,3 +343,151 @@ def test_write_unsupported_suffix(tmp_path: Path) -> None:
 def test_point_cloud_checks_its_arrays(xyz: Any, rgb: Any, message: str) -> None:
     with pytest.raises(InputError, match=message):
         PointCloud(xyz=xyz, rgb=rgb)
+
+
+# --- streaming in chunks ------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", ["cloud.npy", "cloud.ply"])
+@pytest.mark.parametrize("with_colours", [False, True], ids=["xyz", "xyz-rgb"])
+def test_chunks_cover_the_file_in_order_across_boundaries(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, with_colours: bool
+) -> None:
+    monkeypatch.setattr(cloudio, "CHUNK_POINTS", 7)  # buffers of the readers and the writer
+    xyz = random_xyz(5 * 9, np.float32).reshape(5, 9, 3)
+    rgb = random_rgb(5 * 9).reshape(5, 9, 3) if with_colours else None
+    write_cloud(tmp_path / name, PointCloud(xyz=xyz, rgb=rgb))
+
+    with open_cloud(tmp_path / name) as reader:
+        chunks = [(x.copy(), None if c is None else c.copy()) for x, c in reader.chunks(10)]
+
+    assert [len(x) for x, _ in chunks] == [10, 10, 10, 10, 5]
+    np.testing.assert_array_equal(np.concatenate([x for x, _ in chunks]), xyz.reshape(-1, 3))
+    if rgb is not None and name.endswith(".ply"):
+        np.testing.assert_array_equal(np.concatenate([c for _, c in chunks]), rgb.reshape(-1, 3))
+    else:
+        assert all(c is None for _, c in chunks)
+    np.testing.assert_array_equal(
+        read_cloud(tmp_path / name).xyz.reshape(-1, 3), xyz.reshape(-1, 3)
+    )
+
+
+def test_fortran_ordered_npy_comes_back_in_point_order(tmp_path: Path) -> None:
+    xyz = np.asfortranarray(random_xyz(4 * 6, np.float64).reshape(4, 6, 3))
+    np.save(tmp_path / "f.npy", xyz)
+    assert b"'fortran_order': True" in (tmp_path / "f.npy").read_bytes()[:128]
+
+    np.testing.assert_array_equal(read_cloud(tmp_path / "f.npy").xyz, xyz)
+
+
+@pytest.mark.parametrize("text", [False, True], ids=["binary", "ascii"])
+def test_ply_elements_before_and_after_the_vertices_are_skipped(tmp_path: Path, text: bool) -> None:
+    xyz = random_xyz(6, np.float64)
+    vertices = np.empty(6, dtype=[("x", "f8"), ("y", "f8"), ("z", "f8")])
+    for column, name in enumerate("xyz"):
+        vertices[name] = xyz[:, column]
+    camera = np.array([(1.5, 7)], dtype=[("focal", "f4"), ("id", "i2")])
+    faces = np.array([([0, 1, 2],), ([3, 4, 5],)], dtype=[("vertex_indices", "O")])
+    path = tmp_path / "mesh.ply"
+    PlyData(
+        [
+            PlyElement.describe(camera, "camera"),
+            PlyElement.describe(vertices, "vertex"),
+            PlyElement.describe(faces, "face"),
+        ],
+        text=text,
+    ).write(str(path))
+
+    np.testing.assert_array_equal(read_cloud(path).xyz, xyz)
+
+
+def test_writing_goes_through_a_temporary_file_that_never_stays(tmp_path: Path) -> None:
+    cloud = PointCloud(xyz=random_xyz(5, np.float32))
+    path = tmp_path / "cloud.ply"
+    with CloudWriter(path, CloudLayout((5, 3), np.dtype(np.float32), has_rgb=False)) as writer:
+        writer.write(cloud.xyz[:2], None)
+    assert list(tmp_path.iterdir()) == []  # left without commit: nothing, not half a file
+
+    write_cloud(path, cloud)
+    assert [p.name for p in tmp_path.iterdir()] == ["cloud.ply"]
+
+
+# --- hostile headers: refused from the header and the file size, before any allocation ---------
+
+
+def npy_claiming(path: Path, shape: tuple[int, ...], payload: bytes = bytes(48)) -> Path:
+    """A .npy whose header declares ``shape`` (float32) but which holds only ``payload``."""
+    with path.open("wb") as file:
+        np.lib.format.write_array_header_1_0(
+            file, {"descr": "<f4", "fortran_order": False, "shape": shape}
+        )
+        file.write(payload)
+    return path
+
+
+def ply_claiming(path: Path, fmt: str, count: int, body: bytes, extra: str = "") -> Path:
+    header = (
+        f"ply\nformat {fmt} 1.0\nelement vertex {count}\nproperty float x\nproperty float y\n"
+        f"property float z\n{extra}end_header\n"
+    )
+    path.write_bytes(header.encode() + body)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("make", "message"),
+    [
+        (
+            lambda d: npy_claiming(d / "huge.npy", (10**6, 10**6, 3)),  # 3e12 floats
+            r"declares shape \(1000000, 1000000, 3\), 12000000000000 bytes, but only 48 bytes",
+        ),
+        (lambda d: npy_claiming(d / "short.npy", (5, 3)), "60 bytes, but only 48 bytes"),
+        (lambda d: npy_claiming(d / "negative.npy", (-4, 3)), r"got \(-4, 3\)"),
+        (
+            lambda d: ply_claiming(d / "huge.ply", "binary_little_endian", 10**10, bytes(36)),
+            "declares 10000000000 vertex records, which need at least 120000000000 bytes",
+        ),
+        (
+            lambda d: ply_claiming(d / "huge-ascii.ply", "ascii", 10**10, b"1 2 3\n4 5 6\n"),
+            "declares 10000000000 vertex records",
+        ),
+        (
+            lambda d: ply_claiming(
+                d / "faces.ply",
+                "binary_little_endian",
+                1,
+                bytes(12),
+                "element face 10000000000\nproperty list uchar int vertex_indices\n",
+            ),
+            "declares 10000000000 face records",
+        ),
+        (
+            lambda d: ply_claiming(d / "endless.ply", "ascii", 1, b"", "comment " + "x" * 70_000),
+            "no end_header line in its first 65536 bytes",
+        ),
+    ],
+    ids=[
+        "npy-1e12",
+        "npy-short",
+        "npy-negative",
+        "ply-1e10",
+        "ascii-ply-1e10",
+        "ply-1e10-faces",
+        "no-end-header",
+    ],
+)
+def test_hostile_header_is_refused_before_anything_is_allocated(
+    tmp_path: Path, make: Any, message: str
+) -> None:
+    path = make(tmp_path)
+    with pytest.raises(DetectionError, match=message) as info:
+        read_cloud(path)
+    assert str(path) in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_ascii_ply_with_fewer_lines_than_declared(tmp_path: Path) -> None:
+    # Long enough lines to pass the size check, one line short of the header.
+    path = ply_claiming(tmp_path / "short.ply", "ascii", 3, b"1.000 2.000 3.000\n" * 2)
+    with pytest.raises(DetectionError, match="declares 3 vertices, the file holds 2"):
+        read_cloud(path)

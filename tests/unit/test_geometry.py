@@ -6,13 +6,16 @@ component: near pi, [0, 3.1415, 0] and [0, -3.1415, 0] are the same rotation wit
 
 from __future__ import annotations
 
+import itertools
 import math
+import warnings
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.typing import NDArray
+from scipy.spatial.transform import Rotation
 
 from handeye_pick.errors import TransformError
 from handeye_pick.geometry import (
@@ -323,3 +326,68 @@ def test_metres_per_and_scale_translation() -> None:
     np.testing.assert_allclose(T_m[:3, 3], [0.1, -0.02, 0.005], atol=1e-15)
     np.testing.assert_array_equal(T_m[:3, :3], T_mm[:3, :3])
     assert T_mm[0, 3] == 100.0  # the input is not modified
+
+
+# --- agreement with scipy's Rotation, an independent implementation ------------------------------
+# The package converts rotations in closed form (importing scipy.spatial costs a command most of
+# its start-up time); scipy stays the reference the closed forms are checked against.
+
+ALL_SEQUENCES = [
+    "".join(axes) for axes in itertools.product("xyz", repeat=3) if axes[0] != axes[1] != axes[2]
+]
+ALL_SEQUENCES += [sequence.upper() for sequence in ALL_SEQUENCES]
+
+@given(rotvecs)
+def test_rotvec_conversions_agree_with_scipy(rotvec: NDArray[np.float64]) -> None:
+    R_ref = Rotation.from_rotvec(rotvec).as_matrix()
+    np.testing.assert_allclose(rotation_from_rotvec(rotvec), R_ref, atol=1e-15)
+    back = rotation_to_rotvec(R_ref)
+    np.testing.assert_allclose(
+        np.linalg.norm(back), np.linalg.norm(Rotation.from_matrix(R_ref).as_rotvec()), atol=1e-12
+    )
+    assert rotation_angle_between(rotation_from_rotvec(back), R_ref) < ROT_TOL
+
+
+@given(rotations)
+def test_quaternion_agrees_with_scipy_canonical(R: NDArray[np.float64]) -> None:
+    ours = rotation_to_quaternion(R, "xyzw")
+    ref = Rotation.from_matrix(R).as_quat(canonical=True)
+    if abs(ref[3]) < 1e-9:  # at 180 degrees the sign hangs on the last bit of w
+        ours = ours * np.sign(ours @ ref)
+    np.testing.assert_allclose(ours, ref, atol=1e-12)
+    np.testing.assert_allclose(rotation_from_quaternion(ref, "xyzw"), R, atol=1e-12)
+
+
+@given(st.tuples(*(st.floats(-math.pi, math.pi) for _ in range(3))), st.sampled_from(ALL_SEQUENCES))
+def test_rotation_from_euler_agrees_with_scipy(abc: tuple[float, ...], sequence: str) -> None:
+    R_ref = Rotation.from_euler(sequence, abc).as_matrix()
+    np.testing.assert_allclose(rotation_from_euler(abc, sequence, "rad"), R_ref, atol=1e-15)
+
+
+@given(rotations, st.sampled_from(ALL_SEQUENCES))
+def test_euler_angles_agree_with_scipy(R: NDArray[np.float64], sequence: str) -> None:
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # scipy warns about gimbal lock
+        ref = Rotation.from_matrix(R).as_euler(sequence)
+    ours = rotation_to_euler(R, sequence, "rad")
+    # Angles are compared where they are well defined: away from gimbal lock (where only the
+    # rotation is, see test_euler_round_trip), and modulo 2 pi (-pi and pi are one angle).
+    middle_from_lock = ref[1] if sequence[0] == sequence[2] else abs(ref[1]) - math.pi / 2
+    if min(abs(middle_from_lock), abs(abs(ref[1]) - math.pi)) > 1e-6:
+        wrapped = np.angle(np.exp(1j * (ours - ref)))
+        np.testing.assert_allclose(wrapped, 0.0, atol=1e-8)
+
+
+@pytest.mark.parametrize("sequence", ALL_SEQUENCES)
+@pytest.mark.parametrize("lock", ["low", "high"])
+def test_gimbal_lock_sets_the_third_angle_to_zero_as_scipy_does(sequence: str, lock: str) -> None:
+    proper = sequence[0] == sequence[2]
+    middle = {"low": 0.0 if proper else -math.pi / 2, "high": math.pi if proper else math.pi / 2}
+    R = rotation_from_euler([0.3, middle[lock], -1.1], sequence, "rad")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # scipy warns about the lock
+        ref = Rotation.from_matrix(R).as_euler(sequence)
+    ours = rotation_to_euler(R, sequence, "rad")
+    assert ours[2] == 0.0
+    np.testing.assert_allclose(ours, ref, atol=1e-9)
+    assert rotation_angle_between(rotation_from_euler(ours, sequence, "rad"), R) < ROT_TOL

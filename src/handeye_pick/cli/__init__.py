@@ -1,17 +1,30 @@
 """Command-line entry point: ``handeye-pick <command> ...``.
 
-Each command lives in its own module that adds a sub-parser with ``register(subparsers)`` and
-sets ``run=function(args) -> int``. This module turns typed errors into one-line messages and
-exit statuses, so no command prints a traceback for a failure it knows about.
+Each command lives in a module of this package that adds its sub-parser with
+``register(subparsers)`` and sets ``run=function(args) -> int``; ``COMMANDS`` below names the
+module of every command and the one line the top-level ``--help`` shows for it. This module turns
+typed errors into one-line messages and exit statuses, so no command prints a traceback for a
+failure it knows about.
+
+Start-up: only the module of the command being run is imported (none for the top-level
+``--help``), so ``point`` or ``convert`` never pays for what ``pick`` imports; the other commands
+are listed from ``COMMANDS``. A new command is a module with ``register`` and a ``COMMANDS`` line
+whose summary is the ``help=`` of its sub-parser (tests/unit/test_light_imports.py compares
+them). Below that, the package keeps the imports light at the roots: ``import handeye_pick`` loads
+nothing else, ``geometry`` needs no scipy, ``plot`` imports matplotlib and ``cloud`` imports
+numba inside the functions that use them. The one rule left for a command module: anything new
+and heavy it brings (scipy, matplotlib, numba, cv2, open3d) is imported inside the function that
+needs it, so that the command's ``--help`` stays light; the test checks every command's ``--help``.
 """
 
 from __future__ import annotations
 
 import argparse
+import importlib
 import logging
 import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from types import FrameType
 
 from handeye_pick.errors import (
@@ -31,6 +44,45 @@ EXIT_ROBOT_FAULT = 4
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 
+COMMANDS: dict[str, tuple[str, str]] = {
+    # command: (module in handeye_pick.cli that registers it, summary for the top-level --help)
+    "point": ("transform", "transform one camera-frame point (mm) into the robot base frame (mm)"),
+    "convert": (
+        "transform",
+        "convert a pose between UR vector, 4x4 matrix, quaternion and Euler/RPY",
+    ),
+    "pick": (
+        "pick",
+        "pick one detected object: flange pose at capture, hand-eye chain, checked moveL",
+    ),
+    "cloud": (
+        "cloud",
+        "transform a point cloud file from the camera frame into the robot base frame",
+    ),
+    "plan": ("operator", "plan a pick and draw every frame to a PNG; moves nothing"),
+    "status": (
+        "operator",
+        "is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons)",
+    ),
+    "touch-test": (
+        "operator",
+        "move the TCP slowly to a stand-off above a point the camera sees, then back",
+    ),
+    "run": (
+        "run",
+        "run the cell for a shift: JSON requests (capture, pick, place, move, status, resume, "
+        "quit) one per line on stdin or a TCP socket",
+    ),
+    "poses": ("collect", "propose reachable poses for a hand-eye dataset; moves nothing"),
+    "collect": ("collect", "move through a pose list and capture a hand-eye dataset"),
+    "calibrate": (
+        "calibrate",
+        "solve a hand-eye calibration from robot_pose_N.yaml / object_pose_N.yaml pairs",
+    ),
+}
+MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
+"""Every command module, in the order of ``COMMANDS``."""
+
 log = logging.getLogger("handeye_pick")
 
 
@@ -41,9 +93,12 @@ class _Parser(argparse.ArgumentParser):
         raise InputError(f"{self.prog}: {message}")
 
 
-def build_parser() -> argparse.ArgumentParser:
-    from handeye_pick.cli import calibrate, cloud, operator, pick, run, transform
+def parser_with(modules: Collection[str] = MODULES) -> argparse.ArgumentParser:
+    """The parser with the commands of ``modules`` complete (every module by default).
 
+    The other commands are listed with their ``COMMANDS`` summary only: their modules are not
+    imported, and their options are not known to this parser.
+    """
     parser = _Parser(
         prog="handeye-pick",
         description="Camera-guided picks on Universal Robots arms. Frames are named T_a_b "
@@ -51,11 +106,26 @@ def build_parser() -> argparse.ArgumentParser:
     )
     add_output_args(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
-    for module in (transform, pick, cloud, operator, run, calibrate):
-        module.register(sub)
+    for name, (module, summary) in COMMANDS.items():
+        if name in sub.choices:  # registered with an earlier command of its module
+            continue
+        if module in modules:
+            importlib.import_module(f"handeye_pick.cli.{module}").register(sub)
+        else:
+            sub.add_parser(name, help=summary, add_help=False)
     for command_parser in sub.choices.values():  # --quiet/--log-file also after the command
         add_output_args(command_parser, with_defaults=False)
     return parser
+
+
+def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
+    """The parser for the command line ``argv`` (``sys.argv[1:]`` when None).
+
+    The command is found by the top-level parser alone; then only that command's module is
+    imported. The top-level ``--help`` and a missing or unknown command end in the first step.
+    """
+    command = parser_with(()).parse_known_args(argv)[0].command
+    return parser_with({COMMANDS[command][0]})
 
 
 def exit_status(exc: HandEyePickError) -> int:
@@ -79,7 +149,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     signal.signal(signal.SIGTERM, _terminate)
     try:
-        args = build_parser().parse_args(argv)
+        args = build_parser(argv).parse_args(argv)
         configure_logging(args.log_file, quiet=args.quiet)
         status: int = args.run(args)
         return status

@@ -14,8 +14,8 @@ from handeye_pick.cli.common import (
     camera_chain_from_args,
     refuse_implausible_chain,
 )
-from handeye_pick.cloud import transform_points
-from handeye_pick.cloudio import cloud_file_type, read_cloud, write_cloud
+from handeye_pick.cloud import FloatArray, transform_points
+from handeye_pick.cloudio import CloudWriter, open_cloud
 from handeye_pick.geometry import metres_per, scale_translation
 
 
@@ -56,19 +56,35 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run_cloud(args: argparse.Namespace) -> int:
-    """Read IN, transform it in place into the robot base frame, write OUT; print a summary."""
+    """Stream IN to OUT a chunk at a time, transformed into the robot base frame; print a summary.
+
+    Memory stays at a few MB whatever the cloud's size; OUT appears only when complete.
+    """
     chain = camera_chain_from_args(args)
     refuse_implausible_chain(args, chain, None)
-    cloud_file_type(args.output, "write cloud")  # refuse a bad OUT before the slow part
-    cloud = read_cloud(args.input)
     # The chain is in metres; the points stay in their own unit, so scale the translation.
     T_base_cam = scale_translation(chain.T_base_cam, 1.0 / metres_per(args.cloud_units))
-    transform_points(cloud.xyz, T_base_cam, out=cloud.xyz)
-    write_cloud(args.output, cloud)
-    points = cloud.xyz.reshape(-1, 3)
-    missing = int(np.count_nonzero(np.isnan(points).any(axis=1)))
+    missing = 0
+    with open_cloud(args.input) as reader, CloudWriter(args.output, reader.layout) as writer:
+        for xyz, rgb in reader.chunks():
+            transform_points(xyz, T_base_cam, out=xyz)
+            missing += _count_missing(xyz)
+            writer.write(xyz, rgb)
+        writer.commit()
     print(
-        f"wrote {args.output}: {len(points)} points ({missing} without data), "
+        f"wrote {args.output}: {reader.layout.points} points ({missing} without data), "
         f"robot base frame, {args.cloud_units}"
     )
     return 0
+
+
+def _count_missing(xyz: FloatArray) -> int:
+    """Points of an ``(n, 3)`` chunk with a NaN coordinate (no data).
+
+    Column by column: numpy's ``isnan(xyz).any(axis=1)`` reduces along the 3-long axis a row at a
+    time, about 15 times slower than this and slower than the transform itself.
+    """
+    nan = np.isnan(xyz[:, 0])
+    nan |= np.isnan(xyz[:, 1])
+    nan |= np.isnan(xyz[:, 2])
+    return int(np.count_nonzero(nan))

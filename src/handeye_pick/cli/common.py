@@ -23,8 +23,6 @@ from handeye_pick.calibration import (
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.cloud import pick_point
-from handeye_pick.cloudio import read_cloud
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform
 from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
@@ -181,6 +179,10 @@ def camera_point_mm_from_args(args: argparse.Namespace) -> NDArray[np.float64] |
         return point
     if args.pixel is None:
         raise InputError(f"--cloud {args.cloud} needs --pixel COL ROW to choose the point")
+    # Imported here: the cloud modules serve --cloud only, not --xyz or convert.
+    from handeye_pick.cloud import pick_point
+    from handeye_pick.cloudio import read_cloud
+
     col, row = args.pixel
     return pick_point(read_cloud(args.cloud).xyz, col, row)
 

@@ -95,6 +95,13 @@ _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
         "enabled on the robot): stop or disable it, then retry",
     ),
     (
+        "dashboard server",
+        "the controller's dashboard server (port 29999) does not answer. PolyScope X has none, "
+        "and ur_rtde 1.6.5 needs it to run its control script, so handeye-pick cannot drive a "
+        "PolyScope X controller; on PolyScope 5 check that the dashboard server is enabled "
+        "(Settings > Security > Services)",
+    ),
+    (
         "Could not connect",
         "nothing answers on port 30004: check the address, the network cable and that the "
         "controller is booted",

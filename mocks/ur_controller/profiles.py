@@ -1,0 +1,62 @@
+"""Controller profiles: which UR controller generation the simulator pretends to be.
+
+- `e-series`: PolyScope 5.15, 500 Hz, dashboard server, programs on the script port (default).
+- `cb3`: PolyScope 3.15, 125 Hz, CB3 arms (UR3/UR5/UR10), the fields and dashboard of a CB3.
+- `polyscope-x`: PolyScope X 10.7, 500 Hz, RTDE as on e-Series, no dashboard server and no
+  script port (ur_rtde 1.6.5 neither opens 29999 nor uploads its script on 10.x, so the control
+  script must already run, as an operator starts it from the pendant; the simulator starts
+  with it running).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from mocks.ur_controller import fields
+from mocks.ur_controller.kinematics import CB3_MODELS, MODELS
+
+
+@dataclass(frozen=True)
+class Profile:
+    """What one controller generation serves. `version` is (major, minor, bugfix, build)."""
+
+    name: str
+    version: tuple[int, int, int, int]
+    cycle_hz: float  # control loop (and maximum RTDE output) frequency
+    models: tuple[str, ...]
+    default_model: str
+    dashboard: bool  # dashboard server on 29999
+    script_port: bool  # programs accepted on 30003
+    control_script_running: bool  # ur_rtde's control script runs from the start
+    remote_control_mode: bool  # local/remote control exists (e-Series 5.6+)
+    output_types: dict[str, str]
+    input_types: dict[str, str]
+
+    @property
+    def version_text(self) -> str:
+        return ".".join(str(n) for n in self.version)
+
+
+def _profile(name: str, version: tuple[int, int, int, int], cycle_hz: float,
+             models: tuple[str, ...], default_model: str, *, dashboard: bool,
+             control_script_running: bool) -> Profile:
+    short = version[:3]
+    return Profile(
+        name=name, version=version, cycle_hz=cycle_hz, models=models,
+        default_model=default_model, dashboard=dashboard, script_port=dashboard,
+        control_script_running=control_script_running,
+        remote_control_mode=dashboard and short >= (5, 6, 0),
+        output_types=fields.types_for(fields.OUTPUTS, short),
+        input_types=fields.types_for(fields.INPUTS, short),
+    )
+
+
+PROFILES: dict[str, Profile] = {
+    "e-series": _profile("e-series", (5, 15, 0, 1234), 500.0, tuple(MODELS), "ur5e",
+                         dashboard=True, control_script_running=False),
+    "cb3": _profile("cb3", (3, 15, 8, 106339), 125.0, tuple(CB3_MODELS), "ur5",
+                    dashboard=True, control_script_running=False),
+    "polyscope-x": _profile("polyscope-x", (10, 7, 0, 1234), 500.0, tuple(MODELS), "ur5e",
+                            dashboard=False, control_script_running=True),
+}
+DEFAULT_PROFILE = "e-series"

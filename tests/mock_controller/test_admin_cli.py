@@ -1,0 +1,88 @@
+"""Faults injected into a running simulator from the command line (admin channel), and the
+simulator runnable from any directory once the project is installed."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+from mocks.ur_controller import SimulatedController
+from mocks.ur_controller.controller import Controller
+from tests.conftest import next_loopback_host
+
+
+def run_module(*args: str, cwd: Path) -> subprocess.CompletedProcess[str]:
+    """`python -m mocks.ur_controller ARGS` from `cwd`, with no PYTHONPATH help."""
+    env = {key: value for key, value in os.environ.items() if key != "PYTHONPATH"}
+    return subprocess.run([sys.executable, "-m", "mocks.ur_controller", *args], cwd=cwd,
+                          env=env, capture_output=True, text=True, timeout=60, check=False)
+
+
+def test_inject_from_the_command_line_reaches_a_running_controller(
+    sim_controller: Callable[..., SimulatedController], tmp_path: Path,
+) -> None:
+    ctl = sim_controller(instant=True)
+    done = run_module("inject", "--host", ctl.host, "protective-stop", cwd=tmp_path)
+    assert (done.returncode, done.stderr) == (0, "")
+    assert ctl.snapshot().safety_mode == 3
+
+
+def test_inject_a_timed_fault_for_a_later_move(
+    sim_controller: Callable[..., SimulatedController], tmp_path: Path,
+) -> None:
+    ctl = sim_controller(instant=True)
+    assert run_module("inject", "--host", ctl.host, "stop-program@move:1:0.5",
+                      cwd=tmp_path).returncode == 0
+    assert ctl.snapshot().safety_mode == 1  # not yet: it waits for the first move
+
+
+def test_inject_refuses_a_bad_fault_and_says_why(
+    sim_controller: Callable[..., SimulatedController], tmp_path: Path,
+) -> None:
+    ctl = sim_controller(instant=True)
+    done = run_module("inject", "--host", ctl.host, "explode", cwd=tmp_path)
+    assert done.returncode == 2
+    assert "explode" in done.stderr
+    assert len(done.stderr.splitlines()) == 1
+
+
+def test_inject_without_a_controller_fails_clearly(tmp_path: Path) -> None:
+    done = run_module("inject", "--host", next_loopback_host(), "protective-stop", cwd=tmp_path)
+    assert done.returncode == 3
+    assert "no simulated controller answers" in done.stderr
+
+
+def test_a_controller_never_offers_the_admin_channel_off_loopback() -> None:
+    ctl = Controller(host="10.1.2.3", allow_non_loopback=True)  # constructed, never started
+    assert ctl.ports == {"rtde": 30004, "dashboard": 29999, "script": 30003, "robotiq": 63352}
+
+
+def test_help_runs_from_any_directory(tmp_path: Path) -> None:
+    done = run_module("--help", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "--profile" in done.stdout
+
+
+@pytest.mark.parametrize("argument", ["--profile", "--model"])
+def test_bad_choices_are_refused(argument: str, tmp_path: Path) -> None:
+    done = run_module("--host", next_loopback_host(), argument, "nonsense", cwd=tmp_path)
+    assert done.returncode == 2
+
+
+@pytest.mark.parametrize(("arguments", "message"), [
+    (["--profile", "cb3", "--model", "ur5e"], "for the cb3 profile"),
+    (["--tracking", "--instant"], "tracking needs real-time motion"),
+    (["--feedback-input", "16", "40"], "feedback_input"),
+    (["--part-width-mm", "90"], "part width"),
+])
+def test_inconsistent_options_are_refused_in_one_line(arguments: list[str], message: str,
+                                                     tmp_path: Path) -> None:
+    done = run_module("--host", next_loopback_host(), *arguments, cwd=tmp_path)
+    assert done.returncode == 2
+    assert message in done.stderr
+    assert len(done.stderr.splitlines()) == 1
