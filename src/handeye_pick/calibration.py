@@ -22,9 +22,11 @@ guess. Everything returned is in metres.
 
 from __future__ import annotations
 
+import functools
 import hashlib
-import json
+import math
 import re
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -40,9 +42,11 @@ from handeye_pick.geometry import (
     compose,
     metres_per,
     scale_translation,
+    ur_pose_to_matrix,
     validate_transform,
 )
 from handeye_pick.geometry import invert as invert_transform
+from handeye_pick.inputfiles import BoundedLoader, load_json, read_input_bytes, shown, yaml_problem
 
 
 class HandEyeMode(str, Enum):
@@ -50,6 +54,37 @@ class HandEyeMode(str, Enum):
 
     EYE_IN_HAND = "eye-in-hand"  # camera on the flange; the file holds T_flange_cam
     EYE_TO_HAND = "eye-to-hand"  # camera fixed in the cell; the file holds T_base_cam
+
+
+@dataclass(frozen=True)
+class SettingNames:
+    """What the user sets each hand-eye choice with where they are, so a hint names a setting
+    that exists there: a command-line flag (``--invert``) or a cell config key
+    (``hand_eye.invert``)."""
+
+    mode: str
+    units: str
+    invert: str
+    acknowledge: str  # acknowledges one named plausibility check (see plausibility.py)
+
+    @property
+    def on_command_line(self) -> bool:
+        return self.mode.startswith("--")
+
+    def assignment(self, setting: str, value: str) -> str:
+        """``setting`` (one of the names above) given ``value``, written as the user writes it."""
+        return f"{setting} {value}" if self.on_command_line else f"{setting}: {value}"
+
+
+COMMAND_LINE = SettingNames(
+    mode="--mode", units="--calibration-units", invert="--invert", acknowledge="--acknowledge"
+)
+CELL_CONFIG = SettingNames(
+    mode="hand_eye.mode",
+    units="hand_eye.units",
+    invert="hand_eye.invert",
+    acknowledge="hand_eye.acknowledge",
+)
 
 
 @dataclass(frozen=True)
@@ -76,6 +111,12 @@ OBJECT_POSE_RANGE = _DistanceRange(0.02, 10.0, "calibration object distance from
 
 _RANGES = {HandEyeMode.EYE_IN_HAND: EYE_IN_HAND_RANGE, HandEyeMode.EYE_TO_HAND: EYE_TO_HAND_RANGE}
 
+# No entry of a camera or robot transform comes near this, even in mm (1 km); a larger one is a
+# broken or hostile file, refused before any arithmetic on it can overflow.
+MAX_ENTRY = 1e6
+# A rotation vector longer than a full turn is in degrees.
+MAX_ROTVEC_RAD = 2.0 * math.pi
+
 
 @dataclass(frozen=True, eq=False)
 class HandEyeCalibration:
@@ -83,7 +124,8 @@ class HandEyeCalibration:
 
     ``T_cal`` is in metres and read-only: ``T_flange_cam`` for eye-in-hand, ``T_base_cam`` for
     eye-to-hand, already inverted if ``inverted`` is true. ``units`` is the unit the file was
-    declared in; ``sha256`` identifies the file's bytes for the audit trail.
+    declared in; ``sha256`` identifies the file's bytes for the audit trail; ``settings`` names
+    how the user chose mode, units and inversion, for hints in later messages.
     """
 
     mode: HandEyeMode
@@ -92,6 +134,7 @@ class HandEyeCalibration:
     sha256: str
     units: LengthUnit
     inverted: bool
+    settings: SettingNames = COMMAND_LINE
 
     def T_base_cam(self, T_base_flange: Transform | None) -> Transform:
         """Camera pose in the robot base frame (metres).
@@ -120,13 +163,20 @@ def file_sha256(path: Path) -> str:
 
 
 def load_hand_eye(
-    path: Path, mode: HandEyeMode, units: LengthUnit = "mm", invert: bool = False
+    path: Path,
+    mode: HandEyeMode,
+    units: LengthUnit = "mm",
+    invert: bool = False,
+    *,
+    settings: SettingNames = COMMAND_LINE,
 ) -> HandEyeCalibration:
     """Read, validate and unit-check a hand-eye result (Zivid, OpenCV or plain file).
 
     ``units`` is the file's translation unit; ``invert=True`` means the file holds the inverse
-    of what ``mode`` expects (``T_cam_flange`` or ``T_cam_base``). Raises ``CalibrationError``
-    or ``TransformError`` (both exit status 2) naming the file and the defect.
+    of what ``mode`` expects (``T_cam_flange`` or ``T_cam_base``). ``settings`` says where these
+    were chosen (``CELL_CONFIG`` for a cell config), so hints name ``hand_eye.units`` there and
+    ``--calibration-units`` on the command line. Raises ``CalibrationError`` or
+    ``TransformError`` (both exit status 2) naming the file and the defect.
     """
     try:
         mode = HandEyeMode(mode)
@@ -135,9 +185,10 @@ def load_hand_eye(
             f"unknown hand-eye mode {mode!r}: expected 'eye-in-hand' or 'eye-to-hand'"
         ) from None
     data = _read_bytes(Path(path))
-    T_file = _parse_transform(data, Path(path), units, "--calibration-units")
+    declare = functools.partial(settings.assignment, settings.units)
+    T_file = _parse_transform(data, Path(path), units, declare)
     # |t| of T and of its inverse are equal, so the check holds whichever way the file is written.
-    _check_distance(T_file, units, _RANGES[mode], path, "--calibration-units")
+    _check_distance(T_file, units, _RANGES[mode], path, declare)
     T_cal = invert_transform(T_file) if invert else T_file
     T_cal.flags.writeable = False
     return HandEyeCalibration(
@@ -147,6 +198,7 @@ def load_hand_eye(
         sha256=hashlib.sha256(data).hexdigest(),
         units=units,
         inverted=invert,
+        settings=settings,
     )
 
 
@@ -157,17 +209,38 @@ def read_robot_pose_file(
     RobotTransform.yaml, mm by default) and return it in metres, unit-checked.
 
     ``flag`` names the option that declares ``units``, for the unit hint in error messages."""
-    T_base_flange = _parse_transform(_read_bytes(Path(path)), Path(path), units, flag)
-    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, flag)
+    T_base_flange = _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag(flag))
+    _check_distance(T_base_flange, units, ROBOT_POSE_RANGE, path, _flag(flag))
     return T_base_flange
 
 
 def read_object_pose_file(path: Path, units: LengthUnit, flag: str) -> Transform:
     """Read ``T_cam_obj`` (a calibration object's pose in the camera frame, as a detector
     measured it) and return it in metres, unit-checked; ``flag`` as for read_robot_pose_file."""
-    T_cam_obj = _parse_transform(_read_bytes(Path(path)), Path(path), units, flag)
-    _check_distance(T_cam_obj, units, OBJECT_POSE_RANGE, path, flag)
+    T_cam_obj = _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag(flag))
+    _check_distance(T_cam_obj, units, OBJECT_POSE_RANGE, path, _flag(flag))
     return T_cam_obj
+
+
+def robot_pose_from_ur_vector(pose_m_rad: Sequence[float], source: str) -> Transform:
+    """``T_base_flange`` (metres) from a UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rad) typed
+    by a user (``source`` names where, e.g. ``--robot-pose-ur``), with the range check of a pose
+    file: the flange 1 cm to 3 m from the base, a rotation vector at most 2*pi long."""
+    if len(pose_m_rad) != 6:
+        raise CalibrationError(f"{source}: expected 6 numbers, got {len(pose_m_rad)}")
+    distance_m = math.hypot(*pose_m_rad[:3])  # no overflow (and no numpy warning) at 1e308
+    if not ROBOT_POSE_RANGE.low_m <= distance_m <= ROBOT_POSE_RANGE.high_m:
+        raise CalibrationError(
+            f"{source}: {ROBOT_POSE_RANGE.what} is {distance_m:.6g} m, expected "
+            f"{ROBOT_POSE_RANGE.low_m:g} to {ROBOT_POSE_RANGE.high_m:g} m (UR vectors are in m)"
+        )
+    angle = math.hypot(*pose_m_rad[3:])
+    if angle > MAX_ROTVEC_RAD:
+        raise CalibrationError(
+            f"{source}: rotation vector is {angle:.6g} rad long, more than 2*pi "
+            "(UR vectors are in rad; degrees given?)"
+        )
+    return ur_pose_to_matrix(pose_m_rad)
 
 
 def read_transform_file(path: Path, units: LengthUnit) -> Transform:
@@ -175,7 +248,7 @@ def read_transform_file(path: Path, units: LengthUnit) -> Transform:
 
     Validates the rigid transform (see ``geometry.validate_transform``); no magnitude check.
     """
-    return _parse_transform(_read_bytes(Path(path)), Path(path), units, "units")
+    return _parse_transform(_read_bytes(Path(path)), Path(path), units, _flag("units"))
 
 
 def write_zivid_transform(path: Path, T_m: Transform, units: LengthUnit = "mm") -> None:
@@ -202,8 +275,8 @@ class _OpenCVMatrix:
     fields: dict[Any, Any]
 
 
-class _OpenCVLoader(yaml.SafeLoader):
-    """SafeLoader that also builds ``!!opencv-matrix`` nodes (nothing else is added)."""
+class _OpenCVLoader(BoundedLoader):
+    """The bounded safe loader that also builds ``!!opencv-matrix`` nodes (nothing else)."""
 
 
 def _construct_opencv_matrix(loader: yaml.SafeLoader, node: yaml.Node) -> _OpenCVMatrix:
@@ -218,23 +291,27 @@ _OpenCVLoader.add_constructor("tag:yaml.org,2002:opencv-matrix", _construct_open
 
 
 def _read_bytes(path: Path) -> bytes:
-    try:
-        return path.read_bytes()
-    except OSError as exc:
-        raise CalibrationError(f"cannot read transform file {path}: {exc.strerror}") from None
+    return read_input_bytes(path, "transform file", CalibrationError)
 
 
-def _parse_transform(data: bytes, path: Path, units: LengthUnit, flag: str) -> Transform:
+def _flag(flag: str) -> Callable[[str], str]:
+    """How a command-line option (``flag``) declares a unit, for the unit hints."""
+    return lambda unit: f"{flag} {unit}"
+
+
+def _parse_transform(
+    data: bytes, path: Path, units: LengthUnit, declare: Callable[[str], str]
+) -> Transform:
     """The validated transform in ``data`` (the bytes of ``path``), translation in metres.
 
-    ``flag`` names the setting that declares ``units``, for the error messages.
+    ``declare(unit)`` is how the user declares a unit where they are, for the error messages.
     """
     scale = metres_per(units)
     matrix, file_units = _parse_matrix(data, path)
     if file_units is not None and file_units != units:
         raise CalibrationError(
             f"{path}: the file says units: {file_units} but the translation was declared as "
-            f"{units}; declare {file_units} ({flag} {file_units}) or fix the file"
+            f"{units}; declare {file_units} ({declare(file_units)}) or fix the file"
         )
     return scale_translation(validate_transform(matrix, str(path)), scale)
 
@@ -246,27 +323,25 @@ def _parse_matrix(data: bytes, path: Path) -> tuple[list[Any], str | None]:
     except UnicodeDecodeError:
         raise CalibrationError(f"transform file {path} is not UTF-8 text") from None
     first_line, _, rest = text.partition("\n")
+    opencv = bool(_OPENCV_DIRECTIVE.match(first_line.strip()))
     try:
-        if _OPENCV_DIRECTIVE.match(first_line.strip()):
+        if opencv:
             # PyYAML refuses OpenCV's directive; the line carries no data. Blank it, so the line
             # numbers in YAML errors stay right.
             doc = yaml.load("\n" + rest, Loader=_OpenCVLoader)  # a SafeLoader subclass
-            return _opencv_matrix(doc, path), None
-        if path.suffix.lower() == ".json":
-            return _plain_or_zivid_matrix(json.loads(text), path)
-        return _plain_or_zivid_matrix(yaml.safe_load(text), path)
-    except (yaml.YAMLError, json.JSONDecodeError) as exc:
+        elif path.suffix.lower() == ".json":
+            doc = load_json(text)
+        else:
+            doc = yaml.load(text, Loader=BoundedLoader)
+    except yaml.YAMLError as exc:
         raise CalibrationError(
-            f"transform file {path} is not valid YAML/JSON: {_parse_problem(exc)}"
+            f"transform file {path} is not valid YAML/JSON: {yaml_problem(exc)}"
         ) from None
-
-
-def _parse_problem(exc: Exception) -> str:
-    """One line: what the parser objected to and where."""
-    if isinstance(exc, yaml.MarkedYAMLError) and exc.problem_mark is not None:
-        mark = exc.problem_mark
-        return f"{exc.problem} at line {mark.line + 1}, column {mark.column + 1}"
-    return " ".join(str(exc).split())
+    except ValueError as exc:  # load_json's one-line problems
+        raise CalibrationError(f"transform file {path} is not valid YAML/JSON: {exc}") from None
+    if opencv:
+        return _opencv_matrix(doc, path), None
+    return _plain_or_zivid_matrix(doc, path)
 
 
 def _opencv_matrix(doc: Any, path: Path) -> list[Any]:
@@ -276,23 +351,23 @@ def _opencv_matrix(doc: Any, path: Path) -> list[Any]:
     if len(nodes) != 1:
         raise CalibrationError(
             f"{path}: expected exactly one !!opencv-matrix node (Zivid wrote 'PoseState'), "
-            f"found {len(nodes)}: {sorted(map(str, nodes))}"
+            f"found {len(nodes)}: {shown(sorted(map(str, nodes)))}"
         )
     name, node = next(iter(nodes.items()))
     fields = node.fields
     where = f"{path}: node {name}"
     if fields.get("rows") != 4 or fields.get("cols") != 4:
         raise CalibrationError(
-            f"{where}: expected rows: 4 and cols: 4, found rows: {fields.get('rows')}, "
-            f"cols: {fields.get('cols')}"
+            f"{where}: expected rows: 4 and cols: 4, found rows: {shown(fields.get('rows'))}, "
+            f"cols: {shown(fields.get('cols'))}"
         )
     if fields.get("dt") not in ("d", "f"):
-        raise CalibrationError(f"{where}: expected dt: d or f, found {fields.get('dt')!r}")
+        raise CalibrationError(f"{where}: expected dt: d or f, found {shown(fields.get('dt'))}")
     data = fields.get("data")
     if not isinstance(data, list) or len(data) != 16:
         count = len(data) if isinstance(data, list) else type(data).__name__
         raise CalibrationError(f"{where}: expected data with 16 numbers, found {count}")
-    numbers = [_number(v, where) for v in data]
+    numbers = [_number(v, f"{where} data[{k}]") for k, v in enumerate(data)]
     return [numbers[4 * r : 4 * r + 4] for r in range(4)]
 
 
@@ -311,11 +386,11 @@ def _plain_or_zivid_matrix(doc: Any, path: Path) -> tuple[list[Any], str | None]
     if unknown or "matrix" not in doc:
         raise CalibrationError(
             f"{path}: a plain transform mapping has keys 'matrix' and optionally 'units', "
-            f"found {sorted(map(str, doc))}"
+            f"found {shown(sorted(map(str, doc)))}"
         )
     file_units = doc.get("units")
     if file_units is not None and file_units not in ("mm", "m"):
-        raise CalibrationError(f"{path}: units must be 'mm' or 'm', found {file_units!r}")
+        raise CalibrationError(f"{path}: units must be 'mm' or 'm', found {shown(file_units)}")
     return _matrix_rows(doc["matrix"], f"{path}: matrix"), file_units
 
 
@@ -323,12 +398,12 @@ def _zivid_matrix(doc: dict[Any, Any], path: Path) -> list[Any]:
     if set(doc) != {"__version__", "FloatMatrix"}:
         raise CalibrationError(
             f"{path}: a Zivid transform has exactly the keys __version__ and FloatMatrix, "
-            f"found {sorted(map(str, doc))}"
+            f"found {shown(sorted(map(str, doc)))}"
         )
     version = doc["__version__"]
     if version != {"serializer": 1, "data": 1}:
         raise CalibrationError(
-            f"{path}: unsupported Zivid __version__ {version!r}, expected serializer 1, data 1"
+            f"{path}: unsupported Zivid __version__ {shown(version)}, expected serializer 1, data 1"
         )
     body = doc["FloatMatrix"]
     if not isinstance(body, dict) or set(body) != {"Data"}:
@@ -338,30 +413,42 @@ def _zivid_matrix(doc: dict[Any, Any], path: Path) -> list[Any]:
 
 def _matrix_rows(value: Any, where: str) -> list[Any]:
     if not isinstance(value, list) or len(value) != 4:
-        raise CalibrationError(f"{where}: expected a list of 4 rows, found {value!r:.80}")
+        raise CalibrationError(f"{where}: expected a list of 4 rows, found {shown(value)}")
     rows = []
     for i, row in enumerate(value):
         if not isinstance(row, list) or len(row) != 4:
-            raise CalibrationError(f"{where}: row {i} must have 4 numbers, found {row!r:.80}")
-        rows.append([_number(v, f"{where} row {i}") for v in row])
+            raise CalibrationError(f"{where}: row {i} must have 4 numbers, found {shown(row)}")
+        rows.append([_number(v, f"{where} row {i} column {j}") for j, v in enumerate(row)])
     return rows
 
 
 def _number(value: Any, where: str) -> float:
     # PyYAML reads "1e-5" (no dot) as a string; accept numeric strings, refuse anything else.
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise CalibrationError(f"{where}: expected a number, found {value!r}")
+        raise CalibrationError(f"{where}: expected a number, found {shown(value)}")
     try:
-        return float(value)
+        number = float(value)
     except ValueError:
-        raise CalibrationError(f"{where}: expected a number, found {value!r}") from None
+        raise CalibrationError(f"{where}: expected a number, found {shown(value)}") from None
+    # Refused here, before any arithmetic can overflow; NaN and inf are left to
+    # validate_transform, which names them.
+    if math.isfinite(number) and abs(number) > MAX_ENTRY:
+        raise CalibrationError(
+            f"{where}: {number:g} is not a transform entry (rotation entries lie within +-1, "
+            f"translations within a cell; at most {MAX_ENTRY:g} in mm)"
+        )
+    return number
 
 
 # --- checks ---------------------------------------------------------------------------------------
 
 
 def _check_distance(
-    T_m: Transform, units: LengthUnit, limits: _DistanceRange, path: Path, flag: str
+    T_m: Transform,
+    units: LengthUnit,
+    limits: _DistanceRange,
+    path: Path,
+    declare: Callable[[str], str],
 ) -> None:
     """Refuse a translation whose length (m) is outside ``limits``, naming the unit to declare."""
     distance_m = float(np.linalg.norm(T_m[:3, 3]))
@@ -370,7 +457,7 @@ def _check_distance(
     other: LengthUnit = "mm" if units == "m" else "m"
     distance_if_other_m = distance_m / metres_per(units) * metres_per(other)
     hint = (
-        f"the file is probably in {other}: declare {other} ({flag} {other})"
+        f"the file is probably in {other}: declare {other} ({declare(other)})"
         if limits.low_m <= distance_if_other_m <= limits.high_m
         else "no unit makes it plausible: check the file"
     )

@@ -21,9 +21,10 @@ import numpy as np
 import yaml
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import HandEyeMode
+from handeye_pick.calibration import MAX_ROTVEC_RAD, HandEyeMode
 from handeye_pick.errors import ConfigError, InputError
 from handeye_pick.geometry import LengthUnit, Transform, ur_pose_to_matrix
+from handeye_pick.inputfiles import BoundedLoader, read_input_bytes, shown, yaml_problem
 from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
     MAX_GRASP_SPEED_MPS,
@@ -32,13 +33,13 @@ from handeye_pick.limits import (
     MAX_SPEED_MPS,
     stop_decel_problem,
 )
+from handeye_pick.plausibility import CHECKS
 from handeye_pick.robot.port import OutputBank
 
 # Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
 # real cell uses, so it only fires on a mistake.
 MAX_TCP_OFFSET_M = 1.0  # a TCP offset in mm (150) typed into this m key would be 150 m
 MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
-MAX_ROTVEC_RAD = 2.0 * math.pi  # a rotation vector longer than this is in degrees
 MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
 MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
 MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
@@ -80,6 +81,7 @@ class HandEyeConfig:
     file: Path  # absolute, resolved relative to the config file
     units: LengthUnit  # length unit of the file's translation ("mm" for Zivid)
     invert: bool = False  # the file was written the other way round (T_cam_flange / T_cam_base)
+    acknowledge: tuple[str, ...] = ()  # plausibility checks this cell's unusual mount fails
 
 
 @dataclass(frozen=True)
@@ -174,44 +176,22 @@ class CellConfig:
 # --- reading YAML strictly ----------------------------------------------------------------------
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """SafeLoader that refuses a key given twice (plain safe_load keeps the last one silently)."""
+def read_yaml_mapping(path: Path, error: type[InputError], what: str = "file") -> object:
+    """Parse ``path`` (a ``what``: "cell config", "detection file") as YAML with
+    ``inputfiles.BoundedLoader``: safe constructors only, duplicate keys refused, size, values
+    and nesting bounded.
 
-
-def _construct_unique_mapping(
-    loader: yaml.SafeLoader, node: yaml.MappingNode
-) -> dict[object, object]:
-    seen: set[object] = set()
-    for key_node, _ in node.value:
-        if key_node.tag == "tag:yaml.org,2002:merge":
-            continue  # "<<: *anchor" merges; keys written next to it override on purpose
-        key = loader.construct_object(key_node)
-        if key in seen:
-            raise yaml.constructor.ConstructorError(
-                None, None, f"key {key!r} appears twice", key_node.start_mark
-            )
-        seen.add(key)
-    return loader.construct_mapping(node)
-
-
-_UniqueKeyLoader.add_constructor(
-    yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_unique_mapping
-)
-
-
-def read_yaml_mapping(path: Path, error: type[InputError]) -> object:
-    """Parse ``path`` as YAML (safe constructors only, duplicate keys refused).
-
-    Raises ``error`` naming the file for a missing or unreadable file or a syntax error.
+    Raises ``error`` with one line naming the file (and the line and column of a YAML error).
     """
+    data = read_input_bytes(path, what, error)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise error(f"{path}: cannot read the file ({exc.strerror or exc})") from None
+        text = data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise error(f"{path}: not UTF-8 text (a binary file?)") from None
     try:
-        return yaml.load(text, Loader=_UniqueKeyLoader)  # a SafeLoader subclass: safe
+        return yaml.load(text, Loader=BoundedLoader)  # a SafeLoader subclass: safe
     except yaml.YAMLError as exc:
-        raise error(f"{path}: not valid YAML: {exc}") from None
+        raise error(f"{path}: not valid YAML: {yaml_problem(exc)}") from None
 
 
 class Fields:
@@ -238,11 +218,10 @@ class Fields:
         self.data: dict[object, object] = data
         for key in data:
             if key not in allowed:
-                hint = difflib.get_close_matches(str(key), list(allowed), n=1)
+                name = str(key)[:80]  # a hostile file's key may be a megabyte long
+                hint = difflib.get_close_matches(name, list(allowed), n=1)
                 also = f"; did you mean {hint[0]!r}?" if hint else ""
-                self.fail(
-                    str(key), f"unknown key (expected one of {', '.join(sorted(allowed))}){also}"
-                )
+                self.fail(name, f"unknown key (expected one of {', '.join(sorted(allowed))}){also}")
 
     def path(self, key: str) -> str:
         """The dotted key path, e.g. ``motion.speed_mps``."""
@@ -344,8 +323,11 @@ class Fields:
             hint = ""
             if isinstance(value, str) and _parses_as_float(value):
                 if "e" in value.lower():
-                    # YAML 1.1 (PyYAML) reads 1e-3 as text: it needs a dot, 1.0e-3.
-                    hint = " (YAML reads exponents without a dot as text: write 1.0e-3, not 1e-3)"
+                    # YAML 1.1 (PyYAML) reads 1e-3 and 1.0e3 as text: it needs a dot and a sign.
+                    hint = (
+                        " (YAML reads an exponent as a number only with a dot and a sign: "
+                        "write 1.0e-3 or 1.0e+3, not 1e-3 or 1.0e3)"
+                    )
                 else:
                     hint = " (remove the quotes around the number)"
             self.fail(key, f"expected a number, got {_describe(value)}{hint}")
@@ -369,12 +351,12 @@ def _describe(value: object) -> str:
     if isinstance(value, bool):
         return f"boolean {value}"
     if isinstance(value, str):
-        return f"string {value!r}"
+        return f"string {shown(value)}"
     if isinstance(value, list):
         return f"a list of {len(value)} items"
     if isinstance(value, dict):
         return "a mapping"
-    return f"{type(value).__name__} {value!r}"
+    return f"{type(value).__name__} {shown(value)}"
 
 
 # --- the cell config ----------------------------------------------------------------------------
@@ -384,7 +366,7 @@ def load_config(path: Path) -> CellConfig:
     """Read and validate a cell config; file paths in it are resolved relative to its folder."""
     path = Path(path).resolve()
     top = Fields(
-        read_yaml_mapping(path, ConfigError),
+        read_yaml_mapping(path, ConfigError, "cell config"),
         source=str(path),
         prefix="",
         allowed=(
@@ -418,14 +400,14 @@ def load_config(path: Path) -> CellConfig:
 def _pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transform:
     """A UR pose vector [x, y, z, rx, ry, rz] in m and rad, checked for unit mix-ups."""
     pose = fields.vector(key, 6)
-    distance = float(np.linalg.norm(pose[:3]))
+    distance = math.hypot(*pose[:3].tolist())  # no overflow (and no numpy warning) at 1e308
     if distance > max_translation_m:
         fields.fail(
             key,
             f"translation is {distance:g} m long, more than {max_translation_m:g} m: "
             "this key is in metres (millimetres given?)",
         )
-    angle = float(np.linalg.norm(pose[3:]))
+    angle = math.hypot(*pose[3:].tolist())
     if angle > MAX_ROTVEC_RAD:
         fields.fail(
             key,
@@ -486,7 +468,7 @@ def _gripper(robot: Fields) -> GripperConfig:
 
 
 def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
-    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert"))
+    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert", "acknowledge"))
     mode = HandEyeMode(hand_eye.string("mode", choices=[m.value for m in HandEyeMode]))
     units: LengthUnit = "mm" if hand_eye.string("units", choices=("mm", "m")) == "mm" else "m"
     return HandEyeConfig(
@@ -494,7 +476,20 @@ def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
         file=_existing_file(hand_eye, "file", folder),
         units=units,
         invert=hand_eye.boolean("invert", default=HandEyeConfig.invert),
+        acknowledge=_acknowledged_checks(hand_eye) if hand_eye.has("acknowledge") else (),
     )
+
+
+def _acknowledged_checks(hand_eye: Fields) -> tuple[str, ...]:
+    """Names of plausibility checks (``plausibility.CHECKS``), each given once."""
+    value = hand_eye.raw("acknowledge")
+    if not isinstance(value, list) or not value:
+        hand_eye.fail("acknowledge", f"expected a list of check names, got {_describe(value)}")
+    for i, name in enumerate(value):
+        if name not in CHECKS or name in value[:i]:
+            problem = "given twice" if name in CHECKS else f"expected one of {', '.join(CHECKS)}"
+            hand_eye.fail(f"acknowledge[{i}]", f"{problem}, got {_describe(name)}")
+    return tuple(value)
 
 
 def _existing_file(fields: Fields, key: str, folder: Path) -> Path:

@@ -22,22 +22,26 @@ its capture by id).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from handeye_pick.calibration import read_robot_pose_file
+from handeye_pick.calibration import (
+    MAX_ROTVEC_RAD,
+    read_robot_pose_file,
+    robot_pose_from_ur_vector,
+)
 from handeye_pick.config import Fields, read_yaml_mapping
-from handeye_pick.errors import DetectionError, TransformError
+from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,
     make_transform,
     rotation_from_euler,
     rotation_from_quaternion,
     rotation_from_rotvec,
-    ur_pose_to_matrix,
     validate_rotation,
 )
 
@@ -48,7 +52,13 @@ MAX_DISTANCE_MM = 10_000.0
 
 ORIENTATION_KEYS = ("rotvec_rad", "quaternion_xyzw", "quaternion_wxyz", "rpy_deg", "matrix")
 CAPTURE_KEYS = ("flange_pose_ur", "robot_pose_file")
-MAX_FLANGE_DISTANCE_M = 3.0  # no UR flange is farther from its base: a larger value is in mm
+
+# Bounds on orientation numbers, checked before any arithmetic (which overflows near 1e308).
+# Quaternion and matrix entries: far beyond any rotation's (+-1), so a near miss still gets the
+# specific message (unit norm, orthonormal). Euler angles: beyond a full turn is a wrong unit.
+# Rotation vectors longer than calibration.MAX_ROTVEC_RAD are in degrees.
+MAX_ROTATION_ENTRY = 1e6
+MAX_EULER_DEG = 360.0
 
 
 @dataclass(frozen=True)
@@ -70,7 +80,7 @@ def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
     lens."""
     if not np.all(np.isfinite(p_cam_mm)):
         raise DetectionError(f"{source}: camera point has non-finite values {p_cam_mm.tolist()}")
-    distance = float(np.linalg.norm(p_cam_mm))
+    distance = math.hypot(*p_cam_mm.tolist())  # no overflow (and no numpy warning) at 1e308
     if not MIN_DISTANCE_MM <= distance <= MAX_DISTANCE_MM:
         hint = " (metres given as mm?)" if distance < MIN_DISTANCE_MM else ""
         raise DetectionError(
@@ -106,23 +116,42 @@ def _rotation(orientation: Fields) -> NDArray[np.float64]:
     key = given[0]
     try:
         if key == "rotvec_rad":
-            return rotation_from_rotvec(orientation.vector(key, 3))
-        if key == "quaternion_xyzw":
-            return rotation_from_quaternion(orientation.vector(key, 4), "xyzw")
-        if key == "quaternion_wxyz":
-            return rotation_from_quaternion(orientation.vector(key, 4), "wxyz")
+            rotvec = orientation.vector(key, 3)
+            angle = math.hypot(*rotvec.tolist())  # no overflow at 1e308
+            if angle > MAX_ROTVEC_RAD:
+                orientation.fail(
+                    key,
+                    f"rotation vector is {angle:g} rad long, more than 2*pi: "
+                    "this key is in radians (degrees given?)",
+                )
+            return rotation_from_rotvec(rotvec)
+        if key in ("quaternion_xyzw", "quaternion_wxyz"):
+            q = _bounded(orientation, key, orientation.vector(key, 4), MAX_ROTATION_ENTRY)
+            return rotation_from_quaternion(q, "xyzw" if key == "quaternion_xyzw" else "wxyz")
         if key == "rpy_deg":
             rpy = orientation.section(key, ("angles", "convention"))
-            return rotation_from_euler(rpy.vector("angles", 3), rpy.string("convention"), "deg")
-        return validate_rotation(orientation.matrix(key, 3, 3), orientation.path(key))
+            angles = _bounded(rpy, "angles", rpy.vector("angles", 3), MAX_EULER_DEG)
+            return rotation_from_euler(angles, rpy.string("convention"), "deg")
+        matrix = _bounded(orientation, key, orientation.matrix(key, 3, 3), MAX_ROTATION_ENTRY)
+        return validate_rotation(matrix, orientation.path(key))
     except TransformError as exc:
         orientation.fail(key, str(exc))
+
+
+def _bounded(
+    fields: Fields, key: str, values: NDArray[np.float64], limit: float
+) -> NDArray[np.float64]:
+    """``values`` if every magnitude is at most ``limit``, else an error naming the key."""
+    largest = float(np.max(np.abs(values)))
+    if largest > limit:
+        fields.fail(key, f"{largest:g} is out of range: every value must lie within +-{limit:g}")
+    return values
 
 
 def load_detection(path: Path) -> Detection:
     """Read a detection file (format in the module docstring); errors name the file and key."""
     path = Path(path)
-    data = read_yaml_mapping(path, DetectionError)
+    data = read_yaml_mapping(path, DetectionError, "detection file")
     return detection_from_data(data, str(path), capture_folder=path.parent)
 
 
@@ -151,14 +180,8 @@ def _capture_pose(capture: Fields, folder: Path) -> Transform:
         capture.fail("", f"give exactly one of {', '.join(CAPTURE_KEYS)}; got {given or 'none'}")
     if given[0] == "flange_pose_ur":
         pose = capture.vector("flange_pose_ur", 6)
-        if np.linalg.norm(pose[:3]) > MAX_FLANGE_DISTANCE_M:
-            capture.fail(
-                "flange_pose_ur",
-                f"translation {np.round(pose[:3], 4).tolist()} is more than "
-                f"{MAX_FLANGE_DISTANCE_M:g} m from the base: this key is in metres (mm given?)",
-            )
-        try:
-            return ur_pose_to_matrix(pose)
-        except TransformError as exc:
+        try:  # the range check of --robot-pose-ur: no overflow at 1e308, m and rad checked
+            return robot_pose_from_ur_vector(pose.tolist(), "the flange pose")
+        except CalibrationError as exc:
             capture.fail("flange_pose_ur", str(exc))
     return read_robot_pose_file(folder / capture.string("robot_pose_file"), units="mm")

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import fcntl
 import json
 import os
 from datetime import datetime, timedelta, timezone
@@ -9,8 +10,17 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from handeye_pick.audit import AuditError, AuditLog
+from handeye_pick.audit import (
+    AuditError,
+    AuditLog,
+    TornLine,
+    check_appendable,
+    open_audit,
+    read_audit,
+)
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.robot.port import SafetyMode
 from handeye_pick.safety import CheckResult
@@ -130,3 +140,241 @@ def test_unserialisable_value_raises_and_writes_nothing(tmp_path: Path) -> None:
 def test_reserved_keys_are_refused(tmp_path: Path, key: str) -> None:
     with pytest.raises(AuditError, match="set by the audit log itself"):
         AuditLog(tmp_path / "a.jsonl").append({key: "x"})
+
+
+# --- before anything connects: can the file be appended to? --------------------------------------
+
+
+@pytest.mark.parametrize(
+    ("where", "message"),
+    [
+        ("a-folder", r"a-folder is a folder, not a file: name a file in it \(audit\.file\)"),
+        ("missing-folder/a.jsonl", r"cannot append to .*\(No such file or directory\)"),
+        ("a-file/a.jsonl", r"cannot append to .*\(Not a directory\)"),
+    ],
+)
+def test_check_appendable_refuses_in_one_line(tmp_path: Path, where: str, message: str) -> None:
+    (tmp_path / "a-folder").mkdir()
+    (tmp_path / "a-file").write_text("")
+    with pytest.raises(AuditError, match=message) as info:
+        check_appendable(tmp_path / where)
+    assert "\n" not in str(info.value)
+    assert "refusing to start without a record" in str(info.value)
+
+
+def test_check_appendable_refuses_a_disk_that_cannot_sync(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def fsync(fd: int) -> None:
+        raise OSError(5, "Input/output error")
+
+    monkeypatch.setattr(os, "fsync", fsync)
+    with pytest.raises(AuditError, match=r"cannot append to .*\(Input/output error\)"):
+        check_appendable(tmp_path / "a.jsonl")
+
+
+def test_check_appendable_leaves_an_existing_file_as_it_was(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    check_appendable(path)
+    assert path.read_bytes() == b""
+    path.write_bytes(b'{"a": 1}\n{"b": ')
+    check_appendable(path)
+    assert path.read_bytes() == b'{"a": 1}\n{"b": '
+
+
+# --- torn lines: a write cut short by a power cut ------------------------------------------------
+
+
+def test_append_after_a_torn_line_starts_a_fresh_line(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    AuditLog(path, pick_id="one").append({"event": "plan"})
+    complete = path.read_bytes()
+    path.write_bytes(complete + b'{"timestamp": "2024-01-01T00:00:00+00:00", "pick_id": "tw')
+    AuditLog(path, pick_id="three").append({"event": "plan"})
+    first, torn, third = read_audit(path)
+    assert isinstance(first, dict)
+    assert first["pick_id"] == "one"
+    assert torn == TornLine(
+        len(complete), '{"timestamp": "2024-01-01T00:00:00+00:00", "pick_id": "tw'
+    )
+    assert isinstance(third, dict)
+    assert third["pick_id"] == "three"
+
+
+def test_zero_filled_tail_is_a_torn_line(tmp_path: Path) -> None:
+    # ext4 may leave the file longer but zero-filled after a power cut.
+    path = tmp_path / "a.jsonl"
+    path.write_bytes(b'{"a": 1}\n' + b"\0" * 300)
+    AuditLog(path).append({"event": "plan"})
+    first, torn, plan = read_audit(path)
+    assert first == {"a": 1}
+    assert isinstance(torn, TornLine)
+    assert torn.offset == 9
+    assert torn.text.startswith("\0\0\0")
+    assert len(torn.text) == 80
+    assert isinstance(plan, dict)
+    assert plan["event"] == "plan"
+
+
+def test_a_complete_last_record_without_its_newline_is_a_record(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    path.write_bytes(b'{"a": 1}\n{"b": 2}')
+    AuditLog(path).append({"event": "plan"})
+    assert [entry for entry in read_audit(path) if isinstance(entry, TornLine)] == []
+    assert [list(e)[-1] for e in read_audit(path) if isinstance(e, dict)] == ["a", "b", "event"]
+
+
+@given(
+    events=st.lists(st.sampled_from(["plan", "outcome"]), min_size=1, max_size=6),
+    cut_fraction=st.floats(0.0, 1.0),
+)
+@settings(
+    max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+def test_a_power_cut_anywhere_loses_no_complete_record(
+    tmp_path_factory: pytest.TempPathFactory, events: list[str], cut_fraction: float
+) -> None:
+    path = tmp_path_factory.mktemp("cut") / "a.jsonl"
+    log = AuditLog(path)
+    for n, event in enumerate(events):
+        log.append({"event": event, "n": n})
+    data = path.read_bytes()
+    cut = int(len(data) * cut_fraction)
+    path.write_bytes(data[:cut])  # the power cut: everything after byte ``cut`` is lost
+    survivors = data[:cut].count(b"\n")  # records whose line (and newline) reached the disk
+    log.append({"event": "after", "n": -1})
+    entries = list(read_audit(path))
+    records = [entry for entry in entries if isinstance(entry, dict)]
+    torn = [entry for entry in entries if isinstance(entry, TornLine)]
+    ended_cleanly = cut == 0 or data[cut - 1 : cut] == b"\n"
+    whole_record_without_newline = not ended_cleanly and data[cut : cut + 1] == b"\n"
+    assert [r["n"] for r in records] == [
+        *range(survivors + whole_record_without_newline),
+        -1,
+    ]
+    assert len(torn) == (0 if ended_cleanly or whole_record_without_newline else 1)
+
+
+# --- open_audit: the one entry point --------------------------------------------------------------
+
+
+def _write_lines(path: Path, *records: dict[str, object]) -> None:
+    path.write_text("".join(json.dumps(record) + "\n" for record in records))
+
+
+PLAN_A = {"timestamp": "t1", "pick_id": "a", "event": "plan", "dry_run": False, "host": "h"}
+OUTCOME_A = {"timestamp": "t2", "pick_id": "a", "event": "outcome", "status": "done"}
+PLAN_B = {
+    "timestamp": "2024-05-01T10:00:00+00:00",
+    "pick_id": "b",
+    "event": "plan",
+    "dry_run": False,
+    "host": "10.0.0.5",
+    "config": "/cell/cell.yaml",
+}
+
+
+def test_open_audit_closes_a_plan_left_without_an_outcome(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
+    with open_audit(path)[0] as audit:
+        pass
+    audit, warnings = open_audit(path)  # the next start finds nothing left
+    audit.close()
+    assert warnings == []
+    *_, abandoned = _lines(path)
+    assert abandoned["pick_id"] == "b"
+    assert abandoned["event"] == "outcome"
+    assert abandoned["status"] == "abandoned"
+    assert abandoned["plan_timestamp"] == "2024-05-01T10:00:00+00:00"
+    assert abandoned["dry_run"] is False
+
+
+def test_the_abandon_warning_says_what_was_abandoned(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    _write_lines(path, PLAN_A, OUTCOME_A, {**PLAN_B, "dry_run": True})
+    audit, (warning,) = open_audit(path)
+    audit.close()
+    assert warning == (
+        f"audit {path}: dry run b planned at 2024-05-01T10:00:00+00:00 on 10.0.0.5 (config "
+        "/cell/cell.yaml) has no outcome: its process ended without one (killed, crashed or a "
+        "power cut); recorded as abandoned. Check where the robot is before moving it"
+    )
+
+
+def test_open_audit_reports_a_torn_plan_and_closes_the_one_before(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
+    size = path.stat().st_size
+    with path.open("ab") as file:
+        file.write(b'{"timestamp": "t9", "pick_id": "c", "event": "pl')
+    audit, warnings = open_audit(path)
+    audit.close()
+    assert len(warnings) == 2
+    assert warnings[0].startswith(f"audit {path}: an incomplete line at byte {size} (a write cut")
+    assert "b planned at" in warnings[1]
+    entries = list(read_audit(path))
+    assert isinstance(entries[3], TornLine)
+    assert entries[4]["status"] == "abandoned"  # type: ignore[index]
+
+
+def test_a_live_process_keeps_its_plan(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
+    other = os.open(path, os.O_RDONLY)  # another process's open_audit holds a shared lock
+    try:
+        fcntl.flock(other, fcntl.LOCK_SH)
+        audit, (warning,) = open_audit(path)
+        audit.close()
+    finally:
+        os.close(other)
+    assert "another process is using this file" in warning
+    assert [r["pick_id"] for r in _lines(path)] == ["a", "a", "b"]
+
+
+def test_a_session_holds_the_file_until_closed_and_each_cycle_has_its_pick_id(
+    tmp_path: Path,
+) -> None:
+    path = tmp_path / "a.jsonl"
+    first, warnings = open_audit(path)
+    assert warnings == []
+    first.append({"event": "plan"})
+    second = first.next_pick()
+    assert (second.path, second.pick_id != first.pick_id) == (path, True)
+    second.append({"event": "outcome"})  # the first pick is left open: the session is live
+    meanwhile, (warning,) = open_audit(path)
+    meanwhile.close()
+    assert "another process is using this file" in warning
+    second.close()  # the session ends: its lock goes for every cycle's log
+    after, (warning,) = open_audit(path)
+    after.close()
+    assert f"pick {first.pick_id} planned at" in warning
+
+
+def test_the_scan_reads_back_only_to_the_last_finished_plan(tmp_path: Path) -> None:
+    path = tmp_path / "a.jsonl"
+    old_unfinished = {**PLAN_B, "pick_id": "old"}
+    records = [old_unfinished] + [
+        {"pick_id": f"p{n}", "event": event, "n": n}
+        for n in range(50_000)
+        for event in ("plan", "outcome")
+    ]
+    path.write_text("garbage from before\n" + "".join(json.dumps(r) + "\n" for r in records))
+    _write_lines_append(path, PLAN_B)
+    audit, (warning,) = open_audit(path)
+    audit.close()
+    # Closed: the plan after the last finished one. Not reached: the old plan and the garbage.
+    assert "b planned at" in warning
+    with path.open("rb") as file:
+        file.seek(-400, os.SEEK_END)
+        assert b'"status": "abandoned"' in file.read()
+
+
+def _write_lines_append(path: Path, *records: dict[str, object]) -> None:
+    with path.open("a") as file:
+        file.write("".join(json.dumps(record) + "\n" for record in records))
+
+
+def test_open_audit_refuses_an_unwritable_file_in_one_line(tmp_path: Path) -> None:
+    with pytest.raises(AuditError, match="is a folder, not a file"):
+        open_audit(tmp_path)

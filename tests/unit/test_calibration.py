@@ -14,6 +14,8 @@ from hypothesis import strategies as st
 from numpy.typing import NDArray
 
 from handeye_pick.calibration import (
+    CELL_CONFIG,
+    COMMAND_LINE,
     HandEyeMode,
     file_sha256,
     load_hand_eye,
@@ -250,7 +252,7 @@ GOOD_DATA = f"[{ROW}, [0, 1, 0, 0], [0, 0, 1, 0.1], [0, 0, 0, 1]]"
         ("hello", "expected a Zivid transform"),
         ("[[1, 2], [3, 4], [5, 6], [7, 8]]", "row 0 must have 4 numbers"),
         (f"[{ROW}, {ROW}, {ROW}]", "expected a list of 4 rows"),
-        (f"[{ROW}, {ROW}, {ROW}, [0, 0, x, 1]]", "row 3: expected a number, found 'x'"),
+        (f"[{ROW}, {ROW}, {ROW}, [0, 0, x, 1]]", "row 3 column 2: expected a number, found 'x'"),
         (f"[{ROW}, {ROW}, {ROW}, [0, 0, true, 1]]", "expected a number, found True"),
         ("{matrix: [], unit: mm}", "keys 'matrix' and optionally 'units'"),
         (f"{{matrix: {GOOD_DATA}, units: cm}}", "units must be 'mm' or 'm', found 'cm'"),
@@ -346,6 +348,16 @@ def test_binary_file_is_refused(tmp_path: Path) -> None:
 def test_eye_in_hand_mm_file_declared_as_m_is_caught() -> None:
     with pytest.raises(CalibrationError, match=r"declare mm \(--calibration-units mm\)"):
         load_hand_eye(EYE_IN_HAND, HandEyeMode.EYE_IN_HAND, units="m")
+
+
+def test_unit_hint_names_the_setting_where_the_user_is(tmp_path: Path) -> None:
+    # A cell config declares the unit with hand_eye.units; --calibration-units is not there.
+    with pytest.raises(CalibrationError, match=r"declare mm \(hand_eye\.units: mm\)$"):
+        load_hand_eye(EYE_IN_HAND, HandEyeMode.EYE_IN_HAND, units="m", settings=CELL_CONFIG)
+    path = write(tmp_path / "T.yaml", f"{{matrix: {np.eye(4).tolist()}, units: m}}")
+    with pytest.raises(CalibrationError, match=r"\(hand_eye\.units: m\) or fix the file"):
+        load_hand_eye(path, HandEyeMode.EYE_IN_HAND, settings=CELL_CONFIG)
+    assert load_hand_eye(EYE_IN_HAND, HandEyeMode.EYE_IN_HAND).settings is COMMAND_LINE
 
 
 def test_eye_in_hand_m_file_declared_as_mm_is_caught(tmp_path: Path) -> None:

@@ -234,6 +234,20 @@ def test_bundled_example_lands_on_the_table(tmp_path: Path) -> None:
     assert on_box.sum() > 5
 
 
+def test_a_wrist_camera_file_used_as_a_fixed_camera_is_refused(
+    tmp_path: Path, eye_in_hand_file: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    write_cloud(tmp_path / "cam.npy", PointCloud(xyz=camera_cloud()))
+    argv = ["cloud", "--mode", "eye-to-hand", "--calibration", str(eye_in_hand_file)]
+    status = main([*argv, str(tmp_path / "cam.npy"), str(tmp_path / "base.npy")])
+    assert status == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "camera-away-from-base: the camera is 112 mm from the robot base origin" in err
+    assert "set --mode eye-in-hand" in err
+    assert not (tmp_path / "base.npy").exists()
+
+
 # Run under a 1 GiB address-space limit: reading a hostile file's data, or allocating what its
 # header claims (terabytes), would end in a MemoryError (exit 1), not in exit 2 and one line.
 _BOUNDED = """

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration import write_zivid_transform
+from handeye_pick.calibration import read_transform_file, write_zivid_transform
 from handeye_pick.cli import main
 from handeye_pick.geometry import (
     invert,
@@ -196,6 +196,68 @@ def test_eye_to_hand_refuses_a_robot_pose(capsys: pytest.CaptureFixture[str]) ->
         capsys, "--mode eye-to-hand uses no robot pose",
         "point", "--mode", "eye-to-hand", "--calibration", EYE_TO_HAND, "--xyz", "1", "2", "3",
         "--robot-pose-ur", *ROBOT_POSE_UR,
+    )  # fmt: skip
+
+
+# --- point: the chain's plausibility --------------------------------------------------------------
+
+EYE_IN_HAND_POINT = ["--robot-pose", ROBOT_POSE, "--xyz", "10", "-20", "300"]
+
+
+def test_inverted_eye_in_hand_file_is_refused_saying_which_way(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    argv = ["point", "--mode", "eye-in-hand", "--calibration"]
+    assert_bad_input(
+        capsys, "camera-in-front-of-flange: the camera sits 84 mm behind the flange face, inside "
+        "the wrist: the calibration looks inverted (drop --invert)",
+        *argv, EYE_IN_HAND, "--invert", *EYE_IN_HAND_POINT,
+    )  # fmt: skip
+    written_inverted = tmp_path / "T_cam_flange.yaml"
+    write_zivid_transform(written_inverted, invert(read_transform_file(EYE_IN_HAND, "mm")))
+    assert_bad_input(
+        capsys, "looks inverted (add --invert)", *argv, str(written_inverted), *EYE_IN_HAND_POINT
+    )
+    inverted_back = run_json(capsys, *argv, str(written_inverted), "--invert", *EYE_IN_HAND_POINT)
+    as_written = run_json(capsys, *argv, EYE_IN_HAND, *EYE_IN_HAND_POINT)
+    np.testing.assert_allclose(
+        inverted_back["point_base_mm"], as_written["point_base_mm"], atol=1e-3
+    )
+
+
+def test_swapped_mode_is_refused_naming_the_right_one(capsys: pytest.CaptureFixture[str]) -> None:
+    assert_bad_input(
+        capsys, "this looks like an eye-in-hand file (T_flange_cam); for a camera on the arm set "
+        "--mode eye-in-hand",
+        "point", "--mode", "eye-to-hand", "--calibration", EYE_IN_HAND, "--xyz", "10", "-20", "300",
+    )  # fmt: skip
+    assert_bad_input(
+        capsys, "this looks like an eye-to-hand file (T_base_cam); for a camera fixed in the cell "
+        "set --mode eye-to-hand",
+        "point", "--mode", "eye-in-hand", "--calibration", EYE_TO_HAND, *EYE_IN_HAND_POINT,
+    )  # fmt: skip
+
+
+def test_an_acknowledged_check_passes_with_a_warning(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["point", "--mode", "eye-in-hand", "--calibration", EYE_IN_HAND, "--invert"]
+    argv += [*EYE_IN_HAND_POINT, "--acknowledge", "camera-in-front-of-flange"]
+    status, out, err = run(capsys, *argv)
+    assert status == 0
+    assert out.startswith("point_camera_mm:")
+    assert "acknowledged camera-in-front-of-flange: the camera sits 84 mm behind" in err
+    # Only the named check: another one still refuses.
+    argv[argv.index("camera-in-front-of-flange")] = "camera-near-flange"
+    assert_bad_input(capsys, "--acknowledge camera-in-front-of-flange)", *argv)
+
+
+def test_a_camera_point_in_metres_is_refused_as_pick_refuses_it(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert_bad_input(
+        capsys, "--xyz: camera point [0.03777, -0.14592, 1.2271] mm is 1.23632 mm from the "
+        "camera, expected 10 to 10000 mm (metres given as mm?)",
+        "point", "--mode", "eye-to-hand", "--calibration", EYE_TO_HAND,
+        "--xyz", "0.03777", "-0.14592", "1.2271",
     )  # fmt: skip
 
 

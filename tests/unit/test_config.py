@@ -148,6 +148,20 @@ def test_eye_to_hand_tool_gripper_and_invert(cell: Path) -> None:
     assert config.robot.gripper.settle_s == 0.5
 
 
+def test_acknowledged_plausibility_checks_are_named_each_once(cell: Path) -> None:
+    assert _load_with(cell).hand_eye.acknowledge == ()
+    names = ["camera-in-front-of-flange", "object-in-camera-range"]
+    assert _load_with(cell, hand_eye__acknowledge=names).hand_eye.acknowledge == tuple(names)
+    for value, message in [
+        ([], r"hand_eye\.acknowledge: expected a list of check names, got a list of 0 items"),
+        ("camera-in-front-of-flange", r"hand_eye\.acknowledge: expected a list"),
+        (["all"], r"hand_eye\.acknowledge\[0\]: expected one of camera-near-flange, .*'all'"),
+        (names + names[:1], r"hand_eye\.acknowledge\[2\]: given twice"),
+    ]:
+        with pytest.raises(ConfigError, match=message):
+            _load_with(cell, hand_eye__acknowledge=value)
+
+
 @pytest.mark.parametrize(
     "changes",
     [
@@ -269,6 +283,10 @@ def test_yaml_exponent_without_dot_gets_a_hint(cell: Path) -> None:
     assert load_config(path).motion.speed_mps == 0.25  # with the dot YAML reads a number
     path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 25e-2"))
     with pytest.raises(ConfigError, match=r"motion\.speed_mps: .*write 1\.0e-3"):
+        load_config(path)
+    # A dot is not enough: YAML 1.1 also wants the exponent's sign, and the hint says so.
+    path = _write(cell, yaml.safe_dump(BASE).replace("speed_mps: 0.25", "speed_mps: 2.5e1"))
+    with pytest.raises(ConfigError, match=r"motion\.speed_mps: .*a dot and a sign.*1\.0e\+3"):
         load_config(path)
 
 

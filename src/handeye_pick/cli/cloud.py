@@ -12,6 +12,7 @@ from handeye_pick.cli.common import (
     add_hand_eye_args,
     add_robot_pose_args,
     camera_chain_from_args,
+    refuse_implausible_chain,
 )
 from handeye_pick.cloud import FloatArray, transform_points
 from handeye_pick.cloudio import CloudWriter, open_cloud
@@ -60,6 +61,7 @@ def run_cloud(args: argparse.Namespace) -> int:
     Memory stays at a few MB whatever the cloud's size; OUT appears only when complete.
     """
     chain = camera_chain_from_args(args)
+    refuse_implausible_chain(args, chain, None)
     # The chain is in metres; the points stay in their own unit, so scale the translation.
     T_base_cam = scale_translation(chain.T_base_cam, 1.0 / metres_per(args.cloud_units))
     missing = 0

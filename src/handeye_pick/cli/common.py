@@ -8,6 +8,7 @@ call these instead of defining their own flags, so ``--calibration`` means the s
 from __future__ import annotations
 
 import argparse
+import logging
 import re
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,9 +21,13 @@ from handeye_pick.calibration import (
     HandEyeMode,
     load_hand_eye,
     read_robot_pose_file,
+    robot_pose_from_ur_vector,
 )
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform, ur_pose_to_matrix
+from handeye_pick.geometry import Transform
+from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
+
+log = logging.getLogger(__name__)
 
 UNITS = ("mm", "m")
 
@@ -70,6 +75,15 @@ def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True
         action="store_true",
         help="the file holds the inverse (T_cam_flange or T_cam_base); invert it on load. "
         "Nothing is ever inverted without this flag",
+    )
+    group.add_argument(
+        "--acknowledge",
+        action="append",
+        default=[],
+        choices=CHECKS,
+        metavar="CHECK",
+        help="accept one named plausibility check of the camera chain that this mount fails on "
+        "purpose (repeat for several); the refusal names the check",
     )
 
 
@@ -148,7 +162,7 @@ def robot_pose_from_args(args: argparse.Namespace) -> Transform | None:
     if args.robot_pose is not None:
         return read_robot_pose_file(args.robot_pose, units=args.robot_pose_units)
     if args.robot_pose_ur is not None:
-        return ur_pose_to_matrix(args.robot_pose_ur)
+        return robot_pose_from_ur_vector(args.robot_pose_ur, "--robot-pose-ur")
     return None
 
 
@@ -201,3 +215,17 @@ def camera_chain_from_args(args: argparse.Namespace) -> CameraChain:
             "--robot-pose/--robot-pose-ur, or use --mode eye-in-hand if the camera is on the arm"
         )
     return CameraChain(calibration, T_base_flange, calibration.T_base_cam(T_base_flange))
+
+
+def refuse_implausible_chain(
+    args: argparse.Namespace, chain: CameraChain, T_cam_obj: Transform | None
+) -> None:
+    """Refuse (``InputError``) a chain that fails a plausibility check not given to
+    ``--acknowledge``; an acknowledged failure is logged as a warning."""
+    problems = chain_problems(
+        chain.calibration, chain.T_base_flange, T_cam_obj, None, args.acknowledge
+    )
+    for problem in problems:
+        if problem.acknowledged:
+            log.warning("acknowledged %s: %s", problem.check, problem.message)
+    refuse_implausible(problems, chain.calibration.settings, InputError)

@@ -17,7 +17,9 @@ from handeye_pick.cli.common import (
     add_robot_pose_args,
     camera_chain_from_args,
     camera_point_mm_from_args,
+    refuse_implausible_chain,
 )
+from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
     AngleUnit,
@@ -89,6 +91,10 @@ def run_point(args: argparse.Namespace) -> int:
     p_cam_mm = camera_point_mm_from_args(args)
     if p_cam_mm is None:
         raise InputError("point needs --xyz X Y Z or --cloud FILE --pixel COL ROW")
+    # The checks pick applies to a camera point (metres given as mm, behind the lens, ...).
+    source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
+    detection = detection_from_point_mm(p_cam_mm, source)
+    refuse_implausible_chain(args, chain, detection.T_cam_obj)
     p_base_mm = transform_point(chain.T_base_cam, p_cam_mm * 1e-3) * 1e3
     calibration = chain.calibration
     if args.json:

@@ -1,0 +1,259 @@
+"""Plausibility of the camera chain: the shipped cells pass, an inverted file and a swapped mode
+are refused naming the likely mistake, acknowledgement is per check."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from handeye_pick.calibration import (
+    CELL_CONFIG,
+    COMMAND_LINE,
+    HandEyeCalibration,
+    HandEyeMode,
+    SettingNames,
+    load_hand_eye,
+)
+from handeye_pick.config import WorkspaceConfig, load_config
+from handeye_pick.detection import detection_from_point_mm, load_detection
+from handeye_pick.errors import InputError, SafetyRefusal
+from handeye_pick.geometry import (
+    Transform,
+    compose,
+    invert,
+    make_transform,
+    rotation_from_rotvec,
+    ur_pose_to_matrix,
+)
+from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
+
+ROOT = Path(__file__).resolve().parents[2]
+DEMO = load_config(ROOT / "config" / "demo.yaml")
+DEMO_DETECTION = load_detection(ROOT / "config" / "demo" / "detection.yaml")
+# The simulated UR5e's home flange pose, where the demo detection was seen (m, rad).
+DEMO_FLANGE = ur_pose_to_matrix([-0.4919, -0.1333, 0.4879, 2.221441, 2.221441, 0.0])
+EXAMPLE = load_config(ROOT / "docs" / "plan-example.yaml")
+# examples/table_box_camera_mm.npy at pixel (13, 8), as docs/make-plan-example.sh picks it.
+EXAMPLE_POINT = detection_from_point_mm([168.16309, 24.023296, 1153.1183], "pixel 13 8")
+EXAMPLE_FLANGE = ur_pose_to_matrix([0.35, -0.25, 0.45, 3.1416, 0.0, 0.0])
+
+
+def _demo_calibration(mode: HandEyeMode, invert: bool) -> HandEyeCalibration:
+    return load_hand_eye(DEMO.hand_eye.file, mode, "mm", invert, settings=CELL_CONFIG)
+
+
+def _example_calibration(mode: HandEyeMode, invert: bool) -> HandEyeCalibration:
+    return load_hand_eye(EXAMPLE.hand_eye.file, mode, "mm", invert, settings=CELL_CONFIG)
+
+
+def _checks(*args: object) -> list[str]:
+    return [problem.check for problem in chain_problems(*args)]  # type: ignore[arg-type]
+
+
+def test_the_shipped_cells_pass() -> None:
+    demo = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
+    assert chain_problems(demo, DEMO_FLANGE, DEMO_DETECTION.T_cam_obj, DEMO.workspace) == []
+    example = _example_calibration(HandEyeMode.EYE_TO_HAND, invert=False)
+    assert chain_problems(example, None, EXAMPLE_POINT.T_cam_obj, EXAMPLE.workspace) == []
+    for name in ("EyeInHandTransform.yaml", "EyeInHandTransform_opencv_legacy.yaml"):
+        eye_in_hand = load_hand_eye(ROOT / "config" / "calibration" / name, "eye-in-hand")  # type: ignore[arg-type]
+        assert chain_problems(eye_in_hand, EXAMPLE_FLANGE, None, None) == []
+
+
+def test_inverted_demo_file_is_refused_as_inverted() -> None:
+    # The issue's case: the inverted demo file ran the pick to an object 123 mm from the true one.
+    right = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
+    wrong = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=True)
+    T_cam_obj = DEMO_DETECTION.T_cam_obj
+    miss = compose(DEMO_FLANGE, wrong.T_cal, T_cam_obj) - compose(
+        DEMO_FLANGE, right.T_cal, T_cam_obj
+    )
+    assert np.linalg.norm(miss[:3, 3]) * 1000.0 == pytest.approx(123.2, abs=0.1)
+    (problem,) = chain_problems(wrong, DEMO_FLANGE, T_cam_obj, DEMO.workspace)
+    assert problem.check == "camera-in-front-of-flange"
+    assert "59 mm behind the flange face" in problem.message
+    assert "looks inverted (hand_eye.invert: false)" in problem.message
+
+
+def test_swapped_modes_are_refused_naming_the_other_mode() -> None:
+    demo_as_fixed = _demo_calibration(HandEyeMode.EYE_TO_HAND, invert=False)
+    problems = chain_problems(demo_as_fixed, None, DEMO_DETECTION.T_cam_obj, DEMO.workspace)
+    assert [p.check for p in problems] == ["camera-away-from-base"]
+    assert "looks like an eye-in-hand file" in problems[0].message
+    assert "hand_eye.mode: eye-in-hand" in problems[0].message
+    fixed_on_arm = _example_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
+    problems = chain_problems(fixed_on_arm, EXAMPLE_FLANGE, EXAMPLE_POINT.T_cam_obj, None)
+    assert [p.check for p in problems][:2] == ["camera-near-flange", "camera-looks-along-tool"]
+    assert "1347 mm from the flange" in problems[0].message
+    assert "looks like an eye-to-hand file" in problems[0].message
+    assert "hand_eye.mode: eye-to-hand" in problems[0].message
+
+
+@pytest.mark.parametrize("invert_file", [False, True])
+def test_swapped_mode_is_refused_whichever_way_the_file_is_written(invert_file: bool) -> None:
+    demo = _demo_calibration(HandEyeMode.EYE_TO_HAND, invert=invert_file)
+    assert "camera-away-from-base" in _checks(demo, None, None, DEMO.workspace)
+    example = _example_calibration(HandEyeMode.EYE_IN_HAND, invert=invert_file)
+    assert "camera-near-flange" in _checks(example, EXAMPLE_FLANGE, None, None)
+
+
+def _look_at(eye_mm: np.ndarray, target_mm: np.ndarray, roll_rad: float) -> Transform:
+    """T_base_cam of a camera at ``eye_mm`` whose optical axis (z) points at ``target_mm``."""
+    z = (target_mm - eye_mm) / np.linalg.norm(target_mm - eye_mm)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(z[2]) > 0.9 else np.array([0.0, 0.0, 1.0])
+    x = np.cross(helper, z)
+    x /= np.linalg.norm(x)
+    R = np.column_stack([x, np.cross(z, x), z]) @ rotation_from_rotvec([0.0, 0.0, roll_rad])
+    return make_transform(R, eye_mm / 1000.0)
+
+
+def _calibration(mode: HandEyeMode, T_cal: Transform, inverted: bool = False) -> HandEyeCalibration:
+    return HandEyeCalibration(mode, T_cal, Path("cal.yaml"), "", "mm", inverted)
+
+
+@settings(deadline=None)  # no timing assertion on a shared machine
+@given(
+    height_mm=st.floats(50.0, 180.0),
+    side_mm=st.floats(0.0, 50.0),
+    side_angle=st.floats(0.0, 2 * math.pi),
+    tilt_deg=st.floats(0.0, 30.0),
+    tilt_angle=st.floats(0.0, 2 * math.pi),
+    roll=st.floats(-math.pi, math.pi),
+)
+def test_any_usual_wrist_camera_passes_and_its_inverse_or_other_mode_is_refused(
+    height_mm: float,
+    side_mm: float,
+    side_angle: float,
+    tilt_deg: float,
+    tilt_angle: float,
+    roll: float,
+) -> None:
+    # A wrist camera 50-180 mm in front of the flange, at most 50 mm off the tool axis, its
+    # optical axis within 30 degrees of the tool axis, any roll about it.
+    t = np.array([side_mm * math.cos(side_angle), side_mm * math.sin(side_angle), height_mm])
+    tilt_axis = np.array([math.cos(tilt_angle), math.sin(tilt_angle), 0.0])
+    R = rotation_from_rotvec(tilt_axis * math.radians(tilt_deg)) @ rotation_from_rotvec(
+        [0.0, 0.0, roll]
+    )
+    T_flange_cam = make_transform(R, t / 1000.0)
+    assert _checks(_calibration(HandEyeMode.EYE_IN_HAND, T_flange_cam), None, None, None) == []
+    inverted = _calibration(HandEyeMode.EYE_IN_HAND, invert(T_flange_cam), inverted=True)
+    assert _checks(inverted, None, None, None) == ["camera-in-front-of-flange"]
+    as_fixed = _calibration(HandEyeMode.EYE_TO_HAND, T_flange_cam)
+    assert "camera-away-from-base" in _checks(as_fixed, None, None, DEMO.workspace)
+
+
+WORKSPACE = WorkspaceConfig(min_mm=(-800, -800, 0), max_mm=(800, 800, 700), max_tilt_deg=30)
+
+
+@settings(deadline=None)
+@given(
+    height_mm=st.floats(800.0, 2000.0),
+    reach_mm=st.floats(0.0, 1500.0),
+    azimuth=st.floats(0.0, 2 * math.pi),
+    target_mm=st.tuples(st.floats(-700, 700), st.floats(-700, 700), st.floats(0, 100)),
+    roll=st.floats(-math.pi, math.pi),
+)
+def test_any_fixed_camera_looking_at_the_workspace_passes_and_used_on_the_arm_is_refused(
+    height_mm: float,
+    reach_mm: float,
+    azimuth: float,
+    target_mm: tuple[float, float, float],
+    roll: float,
+) -> None:
+    eye = np.array([reach_mm * math.cos(azimuth), reach_mm * math.sin(azimuth), height_mm])
+    T_base_cam = _look_at(eye, np.array(target_mm), roll)
+    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, WORKSPACE) == []
+    on_arm = _calibration(HandEyeMode.EYE_IN_HAND, T_base_cam)
+    assert _checks(on_arm, None, None, None)[:2] == [
+        "camera-near-flange",
+        "camera-looks-along-tool",
+    ]
+
+
+def test_an_inverted_tilted_fixed_camera_looks_away_from_the_workspace() -> None:
+    T_base_cam = _look_at(np.array([1300.0, 100.0, 900.0]), np.array([500.0, 100.0, 200.0]), 0.0)
+    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, WORKSPACE) == []
+    inverted = _calibration(HandEyeMode.EYE_TO_HAND, invert(T_base_cam), inverted=True)
+    (problem,) = chain_problems(inverted, None, None, WORKSPACE)
+    assert problem.check == "camera-looks-at-workspace"
+    assert "looks inverted (drop --invert)" in problem.message
+
+
+def test_a_fixed_camera_below_the_floor_is_refused() -> None:
+    T_base_cam = _look_at(np.array([600.0, 0.0, -300.0]), np.array([600.0, 0.0, 500.0]), 0.0)
+    problems = chain_problems(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, None)
+    assert [p.check for p in problems] == ["camera-above-floor"]
+    assert "300 mm below the robot base plane" in problems[0].message
+    assert "looks inverted (add --invert)" in problems[0].message
+    # With a workspace the floor is the box's: a camera on a low table is still above it.
+    table = WorkspaceConfig(min_mm=(-800, -800, -400), max_mm=(800, 800, 700), max_tilt_deg=30)
+    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, table) == []
+
+
+@pytest.mark.parametrize(
+    ("p_cam_mm", "check"),
+    [
+        ([3.0, 2.0, 30.0], "object-in-camera-range"),  # cm typed as mm
+        ([0.0, 0.0, 6000.0], "object-in-camera-range"),
+        ([0.0, 1500.0, 3000.0], "object-within-reach"),
+    ],
+)
+def test_objects_no_camera_or_arm_could_use_are_refused(p_cam_mm: list[float], check: str) -> None:
+    example = _example_calibration(HandEyeMode.EYE_TO_HAND, invert=False)
+    T_cam_obj = detection_from_point_mm(p_cam_mm, "--xyz").T_cam_obj
+    assert check in _checks(example, None, T_cam_obj, None)
+
+
+def test_the_object_reach_check_needs_the_flange_pose_for_a_wrist_camera() -> None:
+    demo = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
+    T_far = ur_pose_to_matrix([0.0, 2.5, 0.5, math.pi, 0.0, 0.0])  # not a UR flange pose
+    assert _checks(demo, T_far, DEMO_DETECTION.T_cam_obj, None) == ["object-within-reach"]
+    assert _checks(demo, None, DEMO_DETECTION.T_cam_obj, None) == []
+
+
+@pytest.mark.parametrize(
+    ("names", "how"),
+    [
+        (CELL_CONFIG, "hand_eye.acknowledge: [camera-in-front-of-flange]"),
+        (COMMAND_LINE, "--acknowledge camera-in-front-of-flange)"),
+    ],
+)
+def test_refusal_is_one_line_naming_the_check_and_how_to_acknowledge_it(
+    names: SettingNames, how: str
+) -> None:
+    wrong = load_hand_eye(DEMO.hand_eye.file, HandEyeMode.EYE_IN_HAND, invert=True, settings=names)
+    problems = chain_problems(wrong, DEMO_FLANGE, None, None)
+    with pytest.raises(SafetyRefusal) as info:
+        refuse_implausible(problems, names, SafetyRefusal)
+    message = str(info.value)
+    assert message.startswith("implausible camera chain: camera-in-front-of-flange: the camera")
+    assert how in message
+    assert "\n" not in message
+
+
+def test_acknowledging_one_check_lets_only_that_one_through() -> None:
+    wrong = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=True)
+    acknowledged = chain_problems(wrong, DEMO_FLANGE, None, None, ["camera-in-front-of-flange"])
+    assert [(p.check, p.acknowledged) for p in acknowledged] == [
+        ("camera-in-front-of-flange", True)
+    ]
+    refuse_implausible(acknowledged, CELL_CONFIG, InputError)  # reported, not refused
+    other = chain_problems(wrong, DEMO_FLANGE, None, None, ["camera-looks-along-tool"])
+    with pytest.raises(InputError, match="camera-in-front-of-flange"):
+        refuse_implausible(other, CELL_CONFIG, InputError)
+    with pytest.raises(ValueError, match="unknown plausibility checks"):
+        chain_problems(wrong, DEMO_FLANGE, None, None, ["everything"])
+
+
+def test_check_names_are_the_documented_ones() -> None:
+    import handeye_pick.plausibility as module
+
+    assert module.__doc__ is not None
+    for check in CHECKS:
+        assert f"``{check}``" in module.__doc__
