@@ -36,8 +36,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from types import TracebackType
 
-from handeye_pick.audit import AuditLog
-from handeye_pick.calibration import HandEyeCalibration, HandEyeMode, load_hand_eye
+from handeye_pick.audit import AuditLog, open_audit
+from handeye_pick.calibration import CELL_CONFIG, HandEyeCalibration, HandEyeMode, load_hand_eye
 from handeye_pick.config import CellConfig, NamedPose, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
@@ -68,6 +68,7 @@ from handeye_pick.pick import (
     reached_errors,
     steps_record,
 )
+from handeye_pick.plausibility import chain_problems
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
 from handeye_pick.safety import (  # PreflightRefusal: part of this module's API
@@ -176,7 +177,9 @@ class CellStatus:
 def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
     """The hand-eye calibration the cell configuration names (file, mode, units, inversion)."""
     hand_eye = config.hand_eye
-    return load_hand_eye(hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert)
+    return load_hand_eye(
+        hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert, settings=CELL_CONFIG
+    )
 
 
 def connect_ur_rtde(config: CellConfig) -> RobotArm:
@@ -218,6 +221,7 @@ class Cell:
         self._cycle = 0
         self._place_index = 0
         self._fixed_verdicts: ControllerVerdicts = {}
+        self._audit: AuditLog | None = None
 
     # --- session ---------------------------------------------------------------------------
 
@@ -234,11 +238,17 @@ class Cell:
         self.close()
 
     def connect(self, *, request_id: str | None = None) -> None:
-        """Open the robot session; a failure is audited (step ``connect``) and raised."""
+        """Open the audit file (``audit.open_audit``: appendable, locked, unfinished picks of a
+        killed process closed as abandoned) before anything is sent, then the robot session; a
+        failure to connect is audited (step ``connect``) and raised."""
+        if self._audit is None:
+            self._audit, warnings = open_audit(self.config.audit.file)
+            for warning in warnings:
+                log.warning("%s", warning)
         outcome: dict[str, object] = {"event": "outcome", "step": "connect", "reached": {}}
         if request_id is not None:
             outcome["request_id"] = request_id
-        audit = AuditLog(self.config.audit.file)
+        audit = self._next_audit()
         try:
             with self.progress.step(f"connecting to {self.config.robot.host}"):
                 self._arm = self._connect_arm(self.config)
@@ -248,10 +258,24 @@ class Cell:
         self._fixed_verdicts.clear()
 
     def close(self) -> None:
-        """Close the robot session; safe to call twice."""
+        """Close the robot session and release the audit file; safe to call twice."""
+        self._close_arm()
+        if self._audit is not None:
+            self._audit.close()
+            self._audit = None
+
+    def _close_arm(self) -> None:
         if self._arm is not None:
             self._arm.close()
             self._arm = None
+
+    def _next_audit(self) -> AuditLog:
+        """The audit log of the session's next pick (a new pick id, the session's lock)."""
+        if self._audit is None:
+            raise RobotConnectionError(
+                f"cell {self.config.robot.host}: not connected (use the Cell as a context manager)"
+            )
+        return self._audit.next_pick()
 
     @property
     def arm(self) -> RobotArm:
@@ -271,7 +295,7 @@ class Cell:
     def resume(self, *, request_id: str | None = None) -> CellStatus:
         """After the operator cleared a fault on the pendant: a fresh robot session, then the
         full readiness check. The cell stays halted (SafetyRefusal) while it is not ready."""
-        self.close()
+        self._close_arm()
         self.connect(request_id=request_id)
         reason, self._halted = self._halted, None
         status = self.status()
@@ -446,7 +470,7 @@ class Cell:
         }
         if request_id is not None:
             record["request_id"] = request_id
-        AuditLog(self.config.audit.file).append(record)
+        self._next_audit().append(record)
 
     # --- pick --------------------------------------------------------------------------------
 
@@ -522,7 +546,7 @@ class Cell:
         if capture is None:
             self._cycle += 1
         cycle = capture.cycle if capture is not None else self._cycle
-        audit = AuditLog(self.config.audit.file)
+        audit = self._next_audit()
         context: dict[str, object] = {"cycle": cycle, "request_id": request_id}
         outcome: dict[str, object] = {"event": "outcome", **context, "dry_run": dry_run}
         with self._halt_on_fault(), audited_outcome(audit, outcome):
@@ -615,8 +639,13 @@ class Cell:
             if place_config is not None:
                 T_place = place_config.T_base_tcp[self._place_index % len(place_config.T_base_tcp)]
                 steps += place_steps(T_place, place_config, grip=grip)
+            chain_checks = self._plausibility_checks(detection, T_base_flange)
             try:
-                checks = check_steps(self.config, steps, self.arm, self._fixed_verdicts)
+                if not all(check.passed for check in chain_checks):
+                    raise PreflightRefusal(chain_checks)  # nothing asked of the controller
+                checks = chain_checks + check_steps(
+                    self.config, steps, self.arm, self._fixed_verdicts
+                )
             except PreflightRefusal as refusal:
                 failed = [
                     f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed
@@ -627,6 +656,34 @@ class Cell:
         if len(refusals) == 1:  # one detection: its own refusal says it best, every check listed
             raise PreflightRefusal(refusals[0].checks)
         raise NoFeasibleCandidate(refusals)
+
+    def _plausibility_checks(
+        self, detection: Detection, T_base_flange: Transform
+    ) -> list[CheckResult]:
+        """The chain's plausibility (``plausibility.chain_problems``: an inverted or swapped
+        calibration, an object out of the camera's range) as pre-flight results, target
+        ``chain``; a check the config acknowledges passes and says so."""
+        eye_in_hand = self.calibration.mode is HandEyeMode.EYE_IN_HAND
+        problems = chain_problems(
+            self.calibration,
+            T_base_flange if eye_in_hand else None,
+            detection.T_cam_obj,
+            self.config.workspace,
+            self.config.hand_eye.acknowledge,
+        )
+        acknowledge = self.calibration.settings.acknowledge
+        return [
+            CheckResult(
+                f"plausible {problem.check}",
+                "chain",
+                problem.acknowledged,
+                f"{problem.message} (acknowledged in {acknowledge})"
+                if problem.acknowledged
+                else f"{problem.message} (an unusual mount acknowledges it: {acknowledge}: "
+                f"[{problem.check}])",
+            )
+            for problem in problems
+        ]
 
     def _live_capture(self) -> Capture:
         if self.calibration.mode is HandEyeMode.EYE_TO_HAND:
@@ -667,7 +724,7 @@ class Cell:
         record: Mapping[str, object],
     ) -> dict[str, Transform]:
         """Readiness, pre-flight, plan record, moves, outcome record for configured targets."""
-        audit = AuditLog(self.config.audit.file)
+        audit = self._next_audit()
         context: dict[str, object] = {"cycle": self._cycle, "request_id": request_id, **record}
         outcome: dict[str, object] = {"event": "outcome", **context, "operation": what}
         with self._halt_on_fault(), audited_outcome(audit, outcome):
@@ -732,7 +789,7 @@ class Cell:
         except RobotError as exc:
             self._halted = f"{type(exc).__name__}: {exc}"
             if isinstance(exc, RobotConnectionError):
-                self.close()
+                self._close_arm()
             raise
 
 

@@ -477,3 +477,67 @@ def test_a_controller_without_a_dashboard_is_refused_with_the_reason(
     assert status == 4, report
     assert "PolyScope X" in report["error"]
     assert motion_commands(ctl) == []
+
+
+@pytest.mark.parametrize(
+    ("hand_eye", "mistake"),
+    [
+        (
+            f"  mode: eye-in-hand\n  file: {DEMO / 'hand_eye.yaml'}\n  units: mm\n  invert: true\n",
+            "invert",
+        ),
+        (f"  mode: eye-to-hand\n  file: {DEMO / 'hand_eye.yaml'}\n  units: mm\n", "eye-in-hand"),
+    ],
+)
+def test_an_inverted_or_swapped_calibration_is_refused_before_any_motion(
+    sim_controller: SimFactory, tmp_path: Path, hand_eye: str, mistake: str
+) -> None:
+    # Issue 11: the inverted demo file ran to an object 123 mm off and exited 0.
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    status, report = run_json(
+        write_config(tmp_path, ctl.host, hand_eye=hand_eye),
+        "--detection",
+        str(DEMO / "detection.yaml"),
+    )
+    assert status == 3, report
+    assert "plausible" in report["error"]
+    assert mistake in report["error"]
+    assert motion_commands(ctl) == []
+    assert audit_records(tmp_path)[-1]["status"] == "refused"
+
+
+def test_an_audit_file_that_cannot_be_written_is_found_before_connecting(
+    tmp_path: Path, loopback_host: str
+) -> None:
+    # audit.file names a folder: exit 2 and one line, and nothing listens at the address, so
+    # a connection attempt would have been a different error.
+    (tmp_path / "picks.jsonl").mkdir()
+    result = run_pick(write_config(tmp_path, loopback_host), "--xyz", "35", "-20", "384")
+    assert result.returncode == 2, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
+    assert "picks.jsonl" in result.stderr
+
+
+def test_a_pick_killed_after_its_plan_is_closed_as_abandoned_at_the_next_start(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    config = write_config(tmp_path, ctl.host)
+    plan = {
+        "timestamp": "2026-11-29T10:00:00+00:00",
+        "pick_id": "killed",
+        "event": "plan",
+        "host": ctl.host,
+    }
+    (tmp_path / "picks.jsonl").write_text(json.dumps(plan) + "\n" + '{"timestamp": "2026-11-2')
+    result = run_pick(config, "--detection", str(DEMO / "detection.yaml"))
+    assert result.returncode == 0, result.stderr
+    assert "abandoned" in result.stderr
+    records = [
+        json.loads(line)
+        for line in (tmp_path / "picks.jsonl").read_text().splitlines()
+        if line.startswith("{") and line.endswith("}")
+    ]
+    closed = [r for r in records if r.get("pick_id") == "killed" and r["event"] == "outcome"]
+    assert [r["status"] for r in closed] == ["abandoned"]
+    assert records[-1]["status"] == "picked"
