@@ -62,7 +62,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "plan": ("operator", "plan a pick and draw every frame to a PNG; moves nothing"),
     "status": (
         "operator",
-        "is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons)",
+        "is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons), 4 no answer",
     ),
     "touch-test": (
         "operator",

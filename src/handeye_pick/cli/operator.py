@@ -64,7 +64,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
     status = sub.add_parser(
         "status",
-        help="is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons)",
+        help="is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons), 4 no answer",
         description="Connect and show controller version, robot and safety mode, runtime "
         "state, remote control, the active TCP offset against the config, the flange pose, "
         "T_base_cam and whether the workspace box holds the current TCP.",
