@@ -198,3 +198,24 @@ def test_digital_gripper_confirms_only_through_its_feedback_input(
     assert pick_from_start(FEEDBACK) == "picked confirmed"
     ctl.set_part(None)
     assert pick_from_start(FEEDBACK) == "missed missed"
+
+
+def test_the_run_loop_answers_missed_and_stays_ready(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)  # no part
+    T_cam_obj_mm = load_detection(DEMO / "detection.yaml").T_cam_obj[:3, 3] * 1000.0
+    with Cell(robotiq_config(tmp_path, ctl.host)) as cell:
+        runner = Runner(cell)
+        captured = runner.handle('{"id": "1", "op": "capture"}')
+        pick_request = {
+            "id": "2",
+            "op": "pick",
+            "capture_id": captured["capture_id"],
+            "candidates": [{"position_mm": T_cam_obj_mm.tolist()}],
+        }
+        reply = runner.handle(json.dumps(pick_request))
+        assert (reply["ok"], reply["status"]) == (False, "missed"), reply
+        assert "closed on nothing" in str(reply["error"])
+        status = runner.handle('{"id": "3", "op": "status"}')
+        assert (status["ready"], status["halted"]) == (True, False), status
