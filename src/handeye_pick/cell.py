@@ -38,7 +38,7 @@ from types import TracebackType
 
 from handeye_pick.audit import AuditLog, open_audit
 from handeye_pick.calibration import CELL_CONFIG, HandEyeCalibration, HandEyeMode, load_hand_eye
-from handeye_pick.config import CellConfig, NamedPose, load_config
+from handeye_pick.config import CellConfig, GripperConfig, NamedPose, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
     CellHalted,
@@ -50,6 +50,7 @@ from handeye_pick.errors import (
     SafetyRefusal,
 )
 from handeye_pick.geometry import Transform, compose, ur_pose_list
+from handeye_pick.gripper import GraspState, Gripper, connect_gripper
 from handeye_pick.pick import (
     JointMove,
     Move,
@@ -143,7 +144,7 @@ class Capture:
 class PickResult:
     """A pick that ran to its end (or a dry run)."""
 
-    status: str  # placed, picked, dry-run
+    status: str  # placed, picked, missed (the gripper closed on nothing), dry-run
     candidate: int  # index of the picked candidate
     plan: PickPlan
     checks: list[CheckResult]
@@ -188,7 +189,7 @@ def connect_ur_rtde(config: CellConfig) -> RobotArm:
 
     return URRtdeArm(
         config.robot.host,
-        with_io=config.robot.gripper is not None,
+        with_io=isinstance(config.robot.gripper, GripperConfig),
         stop_decel_mps2=config.motion.stop_decel_mps2,
         watchdog_s=config.robot.watchdog_s,
     )
@@ -199,8 +200,8 @@ class Cell:
 
     ``config`` is a path to the cell YAML or a loaded ``CellConfig``. ``progress`` receives
     progress lines (silent by default). ``connect`` makes the robot session (ur_rtde by default;
-    tests pass their own ``RobotArm``). ``connect_robot=False`` makes a cell that only plans
-    offline (``plan_offline``).
+    tests pass their own ``RobotArm``). A cell that is never entered only plans offline
+    (``plan`` with a flange pose).
     """
 
     def __init__(
@@ -215,6 +216,7 @@ class Cell:
         self.progress = progress if progress is not None else Progress.quiet()
         self._connect_arm = connect
         self._arm: RobotArm | None = None
+        self._gripper: Gripper | None = None
         self._halted: str | None = None
         self._captures: OrderedDict[str, Capture] = OrderedDict()
         self._capture_numbers = itertools.count(1)
@@ -226,7 +228,11 @@ class Cell:
     # --- session ---------------------------------------------------------------------------
 
     def __enter__(self) -> Cell:
-        self.connect()
+        try:
+            self.connect()
+        except BaseException:
+            self.close()  # the audit file's lock too: __exit__ does not run after this
+            raise
         return self
 
     def __exit__(
@@ -252,8 +258,10 @@ class Cell:
         try:
             with self.progress.step(f"connecting to {self.config.robot.host}"):
                 self._arm = self._connect_arm(self.config)
+                self._gripper = connect_gripper(self.config, self._arm, self.progress.say)
         except BaseException as exc:
             append_failure(audit, outcome, exc)
+            self._close_arm()
             raise
         self._fixed_verdicts.clear()
 
@@ -265,6 +273,10 @@ class Cell:
             self._audit = None
 
     def _close_arm(self) -> None:
+        """Close the gripper's and the robot's connections (a resume opens fresh ones)."""
+        if self._gripper is not None:
+            self._gripper.close_connection()
+            self._gripper = None
         if self._arm is not None:
             self._arm.close()
             self._arm = None
@@ -582,11 +594,19 @@ class Cell:
                 }
             )
             reached: dict[str, Transform] = {}
+            status = "dry-run"
             if not dry_run:
-                reached = execute(self.config, steps, self.arm, self.progress, outcome, before_move)
-                if place_index is not None:
+                done = execute(
+                    self.config, steps, self.arm, self.progress, outcome, before_move, self._gripper
+                )
+                reached = done.reached
+                if done.grasp is GraspState.MISSED:
+                    status, place_index = "missed", None
+                elif place_index is not None:
                     self._place_index += 1
-            status = "dry-run" if dry_run else ("placed" if place_index is not None else "picked")
+                    status = "placed"
+                else:
+                    status = "picked"
             errors = reached_errors(steps, reached)
             outcome.update(
                 status=status,
@@ -742,7 +762,9 @@ class Cell:
                     "checks": [asdict(check) for check in checks],
                 }
             )
-            reached = execute(self.config, steps, self.arm, self.progress, outcome)
+            reached = execute(
+                self.config, steps, self.arm, self.progress, outcome, gripper=self._gripper
+            ).reached
             outcome["status"] = "done"
         return reached
 

@@ -49,16 +49,71 @@ MIN_WORKSPACE_EXTENT_MM = 10.0  # a box thinner than 1 cm is a box written in me
 NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 STANDARD_OUTPUTS = 8  # standard digital outputs 0-7 on the control box
 TOOL_OUTPUTS = 2  # tool digital outputs 0-1 on the tool flange connector
+MAX_PAYLOAD_KG = 35.0  # the largest UR arm (UR30) carries 30 kg: more is grams typed as kg
+MAX_COG_MM = 1000.0  # no tool's centre of gravity lies a metre from its flange
+
+
+@dataclass(frozen=True)
+class FeedbackInput:
+    """A digital input that reads ``value`` while the gripper holds a part (vacuum switch,
+    finger sensor)."""
+
+    bank: OutputBank  # standard (control box) or tool (flange connector)
+    index: int  # input number: 0-7 standard, 0-1 tool
+    value: bool  # input level that means "part held"
 
 
 @dataclass(frozen=True)
 class GripperConfig:
-    """One digital output that closes the gripper (suction valve, finger gripper)."""
+    """``type: digital-output``: one digital output that closes the gripper (suction valve,
+    finger gripper), optionally with a feedback input that confirms the grasp."""
 
     bank: OutputBank  # standard (control box) or tool (flange connector)
     index: int  # output number: 0-7 standard, 0-1 tool
     close_value: bool  # output level that closes the gripper / switches suction on
     settle_s: float = 0.5  # wait after switching before the retreat starts (s)
+    confirm_input: FeedbackInput | None = None  # None: grasps are never confirmed
+    confirm_timeout_s: float = 1.0  # how long the input may take to follow the output (s)
+
+    kind = "digital-output"
+
+
+@dataclass(frozen=True)
+class Robotiq2FConfig:
+    """``type: robotiq-2f``: a Robotiq 2F-85/140 through its URCap's socket on the robot's host.
+
+    Widths are between the fingers (mm); positions map linearly from ``stroke_mm`` (register 0,
+    open) to 0 mm (register 255), which a calibrated gripper follows to a few millimetres.
+    """
+
+    expected_width_mm: tuple[float, float]  # a grasp stopping inside [min, max] is confirmed
+    speed_pct: float = 100.0  # closing and opening speed, % of the gripper's range
+    force_pct: float = 50.0  # grip force, % of the gripper's range
+    stroke_mm: float = 85.0  # finger opening at position 0: 85 (2F-85) or 140 (2F-140)
+    port: int = 63352  # the URCap's socket
+    timeout_s: float = 1.0  # longest wait for one answer on the socket (s)
+
+    kind = "robotiq-2f"
+
+
+AnyGripperConfig = GripperConfig | Robotiq2FConfig
+
+
+@dataclass(frozen=True)
+class Payload:
+    """A payload as UR's ``set_payload`` takes it: mass (kg) and centre of gravity (m) in the
+    tool flange frame."""
+
+    mass_kg: float
+    cog_flange_m: tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ObjectConfig:
+    """The picked part: its mass (kg) and centre of gravity in the TCP frame at grasp (m)."""
+
+    mass_kg: float
+    cog_tcp_m: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -69,8 +124,9 @@ class RobotConfig:
     T_flange_tcp: Transform  # expected active TCP offset on the controller (m), checked at connect
     tcp_offset_tolerance_mm: float = 1.0  # accepted translation difference, controller vs config
     tcp_offset_tolerance_deg: float = 1.0  # accepted rotation difference, controller vs config
-    gripper: GripperConfig | None = None  # None: the pick moves only, no output is switched
+    gripper: AnyGripperConfig | None = None  # None: the pick moves only, no gripper is used
     watchdog_s: float = 0.2  # the controller stops the program this long after the PC goes silent
+    tool_payload: Payload | None = None  # the empty tool's payload, restored after a release
 
 
 @dataclass(frozen=True)
@@ -163,6 +219,7 @@ class CellConfig:
     poses: tuple[NamedPose, ...] = ()  # named poses, in file order
     place: PlaceConfig | None = None  # None: a pick ends holding the part ("picked")
     capture: CaptureConfig = field(default_factory=CaptureConfig)
+    object: ObjectConfig | None = None  # None: the payload is never changed
 
     def pose(self, name: str) -> NamedPose:
         """The named pose ``name``; ConfigError naming the known ones when it is not defined."""
@@ -379,12 +436,21 @@ def load_config(path: Path) -> CellConfig:
             "poses",
             "place",
             "capture",
+            "object",
         ),
         error=ConfigError,
     )
     poses = _poses(top) if top.has("poses") else ()
+    robot = _robot(top)
+    part = _object(top) if top.has("object") else None
+    if part is not None and robot.tool_payload is None:
+        top.fail(
+            "object",
+            "a part's payload needs the empty tool's too: set robot.tool_payload "
+            "{mass_kg, cog_mm} (as on the pendant's payload screen), restored after each release",
+        )
     return CellConfig(
-        robot=_robot(top),
+        robot=robot,
         hand_eye=_hand_eye(top, path.parent),
         grasp=_grasp(top),
         motion=_motion(top),
@@ -394,6 +460,7 @@ def load_config(path: Path) -> CellConfig:
         poses=poses,
         place=_place(top) if top.has("place") else None,
         capture=_capture(top, poses) if top.has("capture") else CaptureConfig(),
+        object=part,
     )
 
 
@@ -427,6 +494,7 @@ def _robot(top: Fields) -> RobotConfig:
             "tcp_offset_tolerance_deg",
             "gripper",
             "watchdog_s",
+            "tool_payload",
         ),
     )
     return RobotConfig(
@@ -450,21 +518,101 @@ def _robot(top: Fields) -> RobotConfig:
         watchdog_s=robot.number(
             "watchdog_s", default=RobotConfig.watchdog_s, minimum=0.05, maximum=2.0, unit="s"
         ),
+        tool_payload=_tool_payload(robot) if robot.has("tool_payload") else None,
     )
 
 
-def _gripper(robot: Fields) -> GripperConfig:
-    gripper = robot.section("gripper", ("bank", "index", "close_value", "settle_s"))
-    bank = OutputBank(gripper.string("bank", choices=[b.value for b in OutputBank]))
-    count = TOOL_OUTPUTS if bank is OutputBank.TOOL else STANDARD_OUTPUTS
+GRIPPER_TYPES = ("digital-output", "robotiq-2f")
+_DIGITAL_KEYS = ("bank", "index", "close_value", "settle_s", "confirm_input", "confirm_timeout_s")
+_ROBOTIQ_KEYS = ("expected_width_mm", "speed_pct", "force_pct", "stroke_mm", "port", "timeout_s")
+
+
+def _gripper(robot: Fields) -> AnyGripperConfig:
+    raw = robot.raw("gripper")
+    kind = raw.get("type", "digital-output") if isinstance(raw, dict) else None
+    if kind == "robotiq-2f":
+        return _robotiq(robot.section("gripper", ("type", *_ROBOTIQ_KEYS)))
+    gripper = robot.section("gripper", ("type", *_DIGITAL_KEYS))
+    if gripper.has("type"):
+        gripper.string("type", choices=GRIPPER_TYPES)
+    bank, index = _io_point(gripper)
     return GripperConfig(
         bank=bank,
-        index=gripper.integer("index", minimum=0, maximum=count - 1),
+        index=index,
         close_value=gripper.boolean("close_value"),
         settle_s=gripper.number(
             "settle_s", default=GripperConfig.settle_s, minimum=0.0, maximum=10.0, unit="s"
         ),
+        confirm_input=_feedback(gripper) if gripper.has("confirm_input") else None,
+        confirm_timeout_s=gripper.number(
+            "confirm_timeout_s",
+            default=GripperConfig.confirm_timeout_s,
+            above=0.0,
+            maximum=10.0,
+            unit="s",
+        ),
     )
+
+
+def _io_point(fields: Fields) -> tuple[OutputBank, int]:
+    """``bank`` and ``index`` of one digital output or input (0-7 standard, 0-1 tool)."""
+    bank = OutputBank(fields.string("bank", choices=[b.value for b in OutputBank]))
+    count = TOOL_OUTPUTS if bank is OutputBank.TOOL else STANDARD_OUTPUTS
+    return bank, fields.integer("index", minimum=0, maximum=count - 1)
+
+
+def _feedback(gripper: Fields) -> FeedbackInput:
+    feedback = gripper.section("confirm_input", ("bank", "index", "value"))
+    bank, index = _io_point(feedback)
+    return FeedbackInput(bank, index, feedback.boolean("value"))
+
+
+def _robotiq(gripper: Fields) -> Robotiq2FConfig:
+    stroke_mm = gripper.number(
+        "stroke_mm", default=Robotiq2FConfig.stroke_mm, minimum=10.0, maximum=300.0, unit="mm"
+    )
+    low, high = (float(v) for v in gripper.vector("expected_width_mm", 2))
+    if not 0.0 <= low <= high <= stroke_mm:
+        gripper.fail(
+            "expected_width_mm",
+            f"expected [min, max] with 0 <= min <= max <= stroke_mm ({stroke_mm:g} mm), "
+            f"got [{low:g}, {high:g}]",
+        )
+    return Robotiq2FConfig(
+        expected_width_mm=(low, high),
+        speed_pct=gripper.number(
+            "speed_pct", default=Robotiq2FConfig.speed_pct, minimum=0.0, maximum=100.0, unit="%"
+        ),
+        force_pct=gripper.number(
+            "force_pct", default=Robotiq2FConfig.force_pct, minimum=0.0, maximum=100.0, unit="%"
+        ),
+        stroke_mm=stroke_mm,
+        port=gripper.integer("port", minimum=1, maximum=65535)
+        if gripper.has("port")
+        else Robotiq2FConfig.port,
+        timeout_s=gripper.number(
+            "timeout_s", default=Robotiq2FConfig.timeout_s, above=0.0, maximum=10.0, unit="s"
+        ),
+    )
+
+
+def _mass_and_cog(fields: Fields) -> tuple[float, tuple[float, float, float]]:
+    """``mass_kg`` and ``cog_mm`` (converted to m), checked for unit mix-ups."""
+    mass_kg = fields.number("mass_kg", minimum=0.0, maximum=MAX_PAYLOAD_KG, unit="kg")
+    cog_m = fields.vector("cog_mm", 3) / 1000.0
+    if float(np.linalg.norm(cog_m)) * 1000.0 > MAX_COG_MM:
+        fields.fail("cog_mm", f"more than {MAX_COG_MM:g} mm from the origin (metres typed?)")
+    return mass_kg, (float(cog_m[0]), float(cog_m[1]), float(cog_m[2]))
+
+
+def _tool_payload(robot: Fields) -> Payload:
+    mass_kg, cog_m = _mass_and_cog(robot.section("tool_payload", ("mass_kg", "cog_mm")))
+    return Payload(mass_kg, cog_m)
+
+
+def _object(top: Fields) -> ObjectConfig:
+    mass_kg, cog_m = _mass_and_cog(top.section("object", ("mass_kg", "cog_mm")))
+    return ObjectConfig(mass_kg, cog_m)
 
 
 def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:

@@ -73,6 +73,14 @@ class RobotFault(RobotError):
         self.robot_mode = robot_mode
 
 
+class GripperFault(RobotError):
+    """The gripper reports a fault, does not answer in time, or did not do what it was told."""
+
+
+class PartDropped(RobotError):
+    """A part confirmed in the gripper was lost while the arm carried it; the arm was stopped."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
     the outcome), then exit status 143 instead of 130."""

@@ -24,14 +24,23 @@ import numpy as np
 
 from handeye_pick.audit import AuditLog
 from handeye_pick.calibration import HandEyeCalibration
-from handeye_pick.config import CellConfig, PlaceConfig
+from handeye_pick.config import CellConfig, Payload, PlaceConfig
 from handeye_pick.detection import Detection
-from handeye_pick.errors import CellHalted, RobotError, RobotFault, SafetyRefusal, Terminated
+from handeye_pick.errors import (
+    CellHalted,
+    PartDropped,
+    RobotError,
+    RobotFault,
+    SafetyRefusal,
+    Terminated,
+)
 from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
 from handeye_pick.grasp import backed_off, plan_targets
+from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_JOINT_SPEED_RPS, MAX_SPEED_MPS
+from handeye_pick.payload import held_payload
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import RobotArm
+from handeye_pick.robot.port import ProgressCallback, RobotArm
 from handeye_pick.safety import (
     CheckResult,
     ControllerVerdicts,
@@ -48,7 +57,11 @@ TIMEOUT_FACTOR = 1.5
 """A move may take this much longer than its trapezoid profile (speed slider, controller
 ramps) before the margin from the config starts counting."""
 
-STEPS = ("approach", "grasp", "retreat")
+GRASP_WATCH_PERIOD_S = 0.05
+"""How often a carried part is looked at during a move (each look is a gripper round trip)."""
+
+RETREAT = "retreat"
+STEPS = ("approach", "grasp", RETREAT)
 PLACE_STEPS = ("place-approach", "place", "place-retreat")
 
 
@@ -103,7 +116,7 @@ class JointMove:
 
 @dataclass(frozen=True)
 class Grip:
-    """Switch the gripper output: ``close`` grasps, otherwise releases."""
+    """Work the gripper: ``close`` grasps (then confirms), otherwise releases."""
 
     close: bool
 
@@ -209,7 +222,7 @@ def pick_steps(plan: PickPlan, *, grip: bool) -> list[Step]:
     ]
     if grip:
         steps.append(Grip(close=True))
-    steps.append(Move("retreat", plan.retreat))
+    steps.append(Move(RETREAT, plan.retreat))
     return steps
 
 
@@ -245,6 +258,15 @@ def check_steps(
 # --- moving -------------------------------------------------------------------------------------
 
 
+@dataclass(frozen=True)
+class Executed:
+    """What ``execute`` did: the reached ``T_base_tcp`` per move name, and the grasp as the
+    gripper sensed it when it closed (None: no gripper closed)."""
+
+    reached: dict[str, Transform]
+    grasp: GraspState | None = None
+
+
 def execute(
     config: CellConfig,
     steps: Sequence[Step],
@@ -252,31 +274,51 @@ def execute(
     progress: Progress,
     outcome: dict[str, object],
     before_move: Callable[[str], None] | None = None,
-) -> dict[str, Transform]:
-    """Run ``steps`` in order; returns the reached ``T_base_tcp`` per move name.
+    gripper: Gripper | None = None,
+) -> Executed:
+    """Run ``steps`` in order.
 
     ``outcome["step"]`` names the step running (kept when one fails, removed at the end) and
-    ``outcome["reached"]`` fills as moves end, so the audit says how far a sequence got.
-    ``before_move`` is called with a move's name right before it is sent (an operator's
+    ``outcome["reached"]`` fills as moves end, so the audit says how far a sequence got;
+    ``outcome["gripper"]`` lists the gripper's commands, their sensed states and the payloads
+    set. ``before_move`` is called with a move's name right before it is sent (an operator's
     confirmation). Every command's speed is capped again here, whatever the config said.
+
+    The gripper: a missed grasp opens the gripper, runs the retreat and ends the sequence there
+    (``Executed.grasp`` says so). A held part (confirmed or unconfirmed) gets the object payload
+    before the next move, the empty tool's after its release. While a confirmed part is carried,
+    every move watches it; a lost part raises ``PartDropped`` (the adapter stops the arm).
     """
-    motion, gripper = config.motion, config.robot.gripper
+    motion = config.motion
     reached: dict[str, Transform] = {}
     reached_ur: dict[str, list[float]] = {}
     outcome["reached"] = reached_ur
+    commands: list[dict[str, object]] = []
+    if gripper is not None:
+        outcome["gripper"] = {"kind": gripper.kind, "commands": commands}
+    grasp: GraspState | None = None
+    last_move: str | None = None  # a missed grasp ends the sequence after this move
     T_base_tcp_from: Transform | None = None
     for step in steps:
         outcome["step"] = step.name
         if isinstance(step, Grip):
             if gripper is None:
                 continue
-            value = gripper.close_value if step.close else not gripper.close_value
-            with progress.step(f"{step.name} ({gripper.bank.value} output {gripper.index})"):
-                arm.set_digital_output(gripper.bank, gripper.index, value)
-                time.sleep(gripper.settle_s)
+            if step.close:
+                grasp = _close(gripper, progress, commands)
+                if grasp is GraspState.MISSED:
+                    _release(gripper, progress, commands)
+                    last_move = RETREAT
+                else:
+                    _set_payload(arm, _object_payload(config), "part", progress, commands)
+            else:
+                _release(gripper, progress, commands)
+                grasp = None
+                _set_payload(arm, config.robot.tool_payload, "empty tool", progress, commands)
             continue
         if before_move is not None:
             before_move(step.name)
+        watched = gripper if grasp is GraspState.CONFIRMED else None
         if isinstance(step, JointMove):
             _check_joint_command(motion.joint_speed_rps)
             timeout_s = joint_move_timeout_s(
@@ -288,7 +330,11 @@ def execute(
             )
             with progress.step(step.name) as report:
                 reached[step.name] = arm.move_joints(
-                    step.q_rad, motion.joint_speed_rps, motion.joint_accel_rps2, timeout_s, report
+                    step.q_rad,
+                    motion.joint_speed_rps,
+                    motion.joint_accel_rps2,
+                    timeout_s,
+                    _watching(report, watched, step.name),
                 )
             T_base_tcp_from = reached[step.name]
         else:
@@ -309,12 +355,85 @@ def execute(
             )
             with progress.step(step.name) as report:
                 reached[step.name] = arm.move_linear(
-                    step.T_base_tcp, speed_mps, motion.accel_mps2, timeout_s, report
+                    step.T_base_tcp,
+                    speed_mps,
+                    motion.accel_mps2,
+                    timeout_s,
+                    _watching(report, watched, step.name),
                 )
             T_base_tcp_from = step.T_base_tcp
         reached_ur[step.name] = ur_pose_list(reached[step.name])
+        if step.name == last_move:
+            break
     del outcome["step"]
-    return reached
+    return Executed(reached, grasp)
+
+
+def _close(gripper: Gripper, progress: Progress, commands: list[dict[str, object]]) -> GraspState:
+    with progress.step(f"gripper close ({gripper.kind})"):
+        grasp = gripper.close()
+    commands.append({"command": "close", "grasp": grasp.value})
+    progress.say(f"grasp {grasp.value}")
+    return grasp
+
+
+def _release(gripper: Gripper, progress: Progress, commands: list[dict[str, object]]) -> None:
+    with progress.step(f"gripper open ({gripper.kind})"):
+        sensed = gripper.open()
+    commands.append({"command": "open", "release": "confirmed" if sensed else "unconfirmed"})
+
+
+def _object_payload(config: CellConfig) -> Payload | None:
+    """The tool holding the configured part (None: no part configured, payload left alone)."""
+    tool, part = config.robot.tool_payload, config.object
+    if tool is None or part is None:  # the config loader requires the tool's with the part's
+        return None
+    return held_payload(tool, part, config.robot.T_flange_tcp)
+
+
+def _set_payload(
+    arm: RobotArm,
+    payload: Payload | None,
+    what: str,
+    progress: Progress,
+    commands: list[dict[str, object]],
+) -> None:
+    if payload is None:
+        return
+    with progress.step(f"payload {payload.mass_kg:g} kg ({what})"):
+        arm.set_payload(payload.mass_kg, payload.cog_flange_m)
+    commands.append(
+        {
+            "command": "set_payload",
+            "payload": what,
+            "mass_kg": payload.mass_kg,
+            "cog_flange_m": list(payload.cog_flange_m),
+        }
+    )
+
+
+def _watching(report: ProgressCallback, gripper: Gripper | None, move: str) -> ProgressCallback:
+    """``report``, and while ``gripper`` holds a confirmed part, a look at it every
+    ``GRASP_WATCH_PERIOD_S`` and when the move ends: a lost part raises ``PartDropped`` (the
+    adapter stops the arm for any exception from its progress callback)."""
+    if gripper is None:
+        return report
+    last_look = -math.inf
+
+    def watch(fraction: float) -> None:
+        nonlocal last_look
+        report(fraction)
+        now = time.monotonic()
+        if fraction < 1.0 and now - last_look < GRASP_WATCH_PERIOD_S:
+            return
+        last_look = now
+        if gripper.state() is not GraspState.CONFIRMED:
+            raise PartDropped(
+                f"{move}: the {gripper.kind} gripper lost the part at {fraction:.0%} of the "
+                "move: the arm was stopped; clear the part, then resume"
+            )
+
+    return watch
 
 
 def _check_joint_command(speed_rps: float) -> None:
@@ -354,6 +473,8 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
         error["checks"] = [asdict(check) for check in exc.results]
     if isinstance(exc, CellHalted):
         status = "halted"
+    elif isinstance(exc, PartDropped):
+        status = "dropped"
     elif isinstance(exc, SafetyRefusal):
         status = "refused"
     elif isinstance(exc, RobotError):

@@ -31,7 +31,14 @@ from typing import Any
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.cell import Capture, Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.detection import Detection, detection_from_data
-from handeye_pick.errors import CellHalted, InputError, RobotError, SafetyRefusal, Terminated
+from handeye_pick.errors import (
+    CellHalted,
+    InputError,
+    PartDropped,
+    RobotError,
+    SafetyRefusal,
+    Terminated,
+)
 from handeye_pick.geometry import ur_pose_list
 from handeye_pick.safety import PreflightRefusal
 
@@ -39,6 +46,9 @@ log = logging.getLogger(__name__)
 
 MAX_LINE_BYTES = 1_000_000
 """Longest request line read; a longer one is answered with an error, never held in memory."""
+MISSED_MESSAGE = (
+    "the gripper closed on nothing: it was opened and the arm retreated; the cell is ready"
+)
 MAX_CANDIDATES = 100
 """Most candidate detections one pick request may carry."""
 
@@ -174,6 +184,8 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
         fields["refused"] = [{"candidate": 0, "reasons": failed}]
     elif isinstance(exc, CellHalted):
         fields["status"] = "halted"
+    elif isinstance(exc, PartDropped):
+        fields["status"] = "dropped"
     elif isinstance(exc, SafetyRefusal):
         fields["status"] = "refused"
     elif isinstance(exc, RobotError):
@@ -185,7 +197,7 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
 
 def pick_reply(result: PickResult) -> dict[str, object]:
     reply: dict[str, object] = {
-        "ok": True,
+        "ok": result.status != "missed",
         "status": result.status,
         "candidate": result.candidate,
         "capture_id": result.capture.capture_id,
@@ -202,6 +214,8 @@ def pick_reply(result: PickResult) -> dict[str, object]:
             "index": result.place_index,
             "pose": ur_pose_list(result.T_base_tcp_place),
         }
+    if result.status == "missed":
+        reply["error"] = MISSED_MESSAGE
     return reply
 
 

@@ -41,6 +41,7 @@ EXIT_INTERNAL = 1
 EXIT_BAD_INPUT = 2
 EXIT_REFUSED = 3
 EXIT_ROBOT_FAULT = 4
+EXIT_MISSED = 5  # pick: the gripper closed on nothing, opened, and the arm retreated
 EXIT_INTERRUPTED = 130
 EXIT_TERMINATED = 143
 

@@ -13,6 +13,7 @@ import argparse
 from dataclasses import asdict
 from typing import TYPE_CHECKING
 
+from handeye_pick.cli import EXIT_MISSED
 from handeye_pick.cli.cell import (
     add_capture_pose_args,
     add_config_arg,
@@ -42,7 +43,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "steady), check every target, append the plan to the audit file, then moveL approach, "
         "grasp (gripper output if configured), retreat, and place when the config has a place "
         "section. Exit status: 0 done, 2 bad input or config, 3 refused by a check (nothing "
-        "moved), 4 robot fault, 130 interrupted, 143 terminated (SIGTERM).",
+        "moved), 4 robot fault (a dropped part or a gripper fault included), 5 missed (the "
+        "gripper closed on nothing, opened and retreated), 130 interrupted, 143 terminated "
+        "(SIGTERM).",
     )
     add_config_arg(parser)
     add_detection_arg(parser)
@@ -106,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         print_json(report)
     else:
         _print_summary(result, str(config.audit.file))
-    return 0
+    return EXIT_MISSED if result.status == "missed" else 0
 
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:

@@ -69,7 +69,7 @@ def mode_name(enum_type: type[enum.IntEnum], value: int) -> str:
 
 
 class OutputBank(enum.Enum):
-    """Which digital outputs a gripper is wired to."""
+    """A bank of digital outputs or inputs a gripper is wired to."""
 
     STANDARD = "standard"
     TOOL = "tool"
@@ -173,6 +173,15 @@ class RobotArm(Protocol):
 
     def set_digital_output(self, bank: OutputBank, index: int, value: bool) -> None:
         """Set one digital output (gripper); raises RobotFault if the controller refuses."""
+        ...
+
+    def digital_input(self, bank: OutputBank, index: int) -> bool:
+        """One digital input (a gripper's feedback) from the latest RTDE sample."""
+        ...
+
+    def set_payload(self, mass_kg: float, cog_flange_m: Sequence[float]) -> None:
+        """UR's ``set_payload``: mass (kg) and centre of gravity (m, tool flange frame); raises
+        RobotFault if the controller refuses."""
         ...
 
     def close(self) -> None:

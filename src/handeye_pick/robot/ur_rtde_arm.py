@@ -79,7 +79,7 @@ OUTPUT_CONFIRM_TIMEOUT_S = 0.5
 """ur_rtde's IO setters return once the package is written; the controller must show the new
 output value in its RTDE data within this time (250 cycles at 500 Hz)."""
 TOOL_OUTPUT_FIRST_BIT = 16
-"""Tool digital outputs start at bit 16 of ``actual_digital_output_bits``."""
+"""Tool digital outputs (inputs) start at bit 16 of ``actual_digital_output_bits`` (``_input_``)."""
 
 # Parts of ur_rtde's RuntimeError texts (1.6.5) and what to tell the operator instead.
 _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
@@ -513,6 +513,20 @@ class URRtdeArm:
                     f"{OUTPUT_CONFIRM_TIMEOUT_S} s",
                     sample,
                 )
+
+    def digital_input(self, bank: OutputBank, index: int) -> bool:
+        """One digital input from the latest RTDE sample (``actual_digital_input_bits``)."""
+        bit = TOOL_OUTPUT_FIRST_BIT + index if bank is OutputBank.TOOL else index
+        return bool(self._sample("sample").digital_input_bits >> bit & 1)
+
+    def set_payload(self, mass_kg: float, cog_flange_m: Sequence[float]) -> None:
+        """``setPayload(mass, cog)`` (kg, m in the flange frame); RobotFault when refused."""
+        cog = [float(v) for v in cog_flange_m]
+        if not self._call("set_payload", float(mass_kg), cog):
+            raise self._fault(
+                f"setPayload({mass_kg:g} kg, CoG {_fmt_pose(cog)} m) was refused",
+                self._sample("sample"),
+            )
 
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""

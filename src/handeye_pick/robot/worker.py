@@ -97,6 +97,7 @@ class Sample:
     control_connected: bool
     speed_scaling: float  # speed slider x controller speed scaling, 0..1
     digital_output_bits: int  # standard outputs bits 0-7, configurable 8-15, tool 16-17
+    digital_input_bits: int  # the inputs, in the same layout
 
 
 class _Session:
@@ -175,6 +176,7 @@ class _Session:
             control_connected=bool(c.isConnected()),
             speed_scaling=float(r.getSpeedScalingCombined()),
             digital_output_bits=int(r.getActualDigitalOutputBits()),
+            digital_input_bits=int(r.getActualDigitalInputBits()),
         )
 
     def fresh_sample(self) -> Sample:
@@ -239,6 +241,9 @@ class _Session:
     def stop_j(self, decel_rps2: float) -> None:
         self._control.stopJ(decel_rps2, False)
 
+    def set_payload(self, mass_kg: float, cog_m: list[float]) -> bool:
+        return bool(self._control.setPayload(mass_kg, cog_m))
+
     def set_standard_digital_out(self, index: int, value: bool) -> bool:
         return bool(self._require_io().setStandardDigitalOut(index, value))
 
@@ -290,6 +295,7 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         "is_joints_within_safety_limits": session.is_joints_within_safety_limits,
         "move_j_async": session.move_j_async,
         "stop_j": session.stop_j,
+        "set_payload": session.set_payload,
         "set_standard_digital_out": session.set_standard_digital_out,
         "set_tool_digital_out": session.set_tool_digital_out,
     }
