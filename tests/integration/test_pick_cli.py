@@ -541,3 +541,38 @@ def test_a_pick_killed_after_its_plan_is_closed_as_abandoned_at_the_next_start(
     closed = [r for r in records if r.get("pick_id") == "killed" and r["event"] == "outcome"]
     assert [r["status"] for r in closed] == ["abandoned"]
     assert records[-1]["status"] == "picked"
+
+
+def test_a_move_the_controller_refuses_is_a_fault_not_a_success(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # ur_rtde answers the refused moveL with False while every status flag reads normal: the
+    # pick must end there (a mutation treating False as success survived the suite before).
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    ctl.inject("refuse-move")
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 4, report
+    assert "refused" in report["error"]
+    outcome = audit_records(tmp_path)[-1]
+    assert (outcome["status"], outcome["step"]) == ("fault", "approach")
+    assert [c["kind"] for c in motion_commands(ctl) if not c.get("refused")] == []
+
+
+def test_a_link_frozen_mid_move_ends_the_pick_and_the_arm_does_not_finish_the_move(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # Issue 11: the controller stalls 3 s mid-approach, then answers again. The pick ends with
+    # exit 4; the stop (the dashboard's, retried until confirmed, or the starved watchdog's)
+    # leaves the arm short of the approach target instead of finishing the move on its own.
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, speed_factor=0.5, inject=("stall:3@move:1:0.3",))
+    status, report = run_json(
+        write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
+    )
+    assert status == 4, report
+    time.sleep(0.5)
+    snapshot = ctl.snapshot()
+    assert not snapshot.moving
+    approach = motion_commands(ctl)[0]["target"]
+    assert np.linalg.norm(np.subtract(snapshot.tcp_pose[:3], approach[:3])) > 0.005
