@@ -67,8 +67,11 @@ STEADY_JOINT_SPEED_RPS = 0.002
 (0.11 deg/s: under 2 mm/s at the reach of a UR10e) in two consecutive RTDE samples."""
 MIN_SPEED_SCALING = 0.05
 """A move's timeout stretches with the speed slider, down to this fraction (20 times longer)."""
-STOP_TIMEOUT_S = 2.0
-"""stopL gets this long before the program is stopped through the dashboard instead."""
+STOP_TIMEOUT_S = 5.0
+"""stopL gets this long before the program is stopped through the dashboard instead. Waiting
+does not leave the arm moving: while the ur_rtde process waits for the stopL answer it feeds no
+watchdog, so the controller stops the program after ``watchdog_s`` anyway. (2 s was too short
+for a simulated controller descheduled on a busy machine, which then answered late.)"""
 DASHBOARD_STOP_DEADLINE_S = 15.0
 """How long a stop through the dashboard is retried after the RTDE link is lost (a controller
 that stalled for 8 s still gets its stop once it answers again)."""
