@@ -194,7 +194,7 @@ def test_a_pick_killed_mid_move_is_stopped_by_the_controller_watchdog(
     assert not after.moving
     assert after.runtime_state == RuntimeState.STOPPED  # the watchdog stopped the program
     assert "stopL" not in [c["kind"] for c in ctl.commands]  # nobody sent a stop
-    # Within 0.5 s of the kill (a 0.3 s window: 0.2 s trips spuriously when this shared machine
+    # Within 0.5 s of the kill (a 0.25 s window: 0.2 s trips spuriously when this shared machine
     # deschedules the simulator), told in distance so the test does not time the machine: the
     # approach runs at 0.25 m/s x speed factor 0.2, so 0.5 s is 25 mm of travel.
     travelled_m = float(np.linalg.norm(np.subtract(after.tcp_pose[:3], at_kill.tcp_pose[:3])))

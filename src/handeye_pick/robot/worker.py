@@ -32,12 +32,12 @@ FRESH_SAMPLE_TIMEOUT_S = 0.5
 """How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
 FIRST_SAMPLE_TIMEOUT_S = 1.0
 """How long a new receive interface may go without data before the connection fails."""
-WATCHDOG_KICKS_PER_WINDOW = 4
+WATCHDOG_KICKS_PER_WINDOW = 8
 """ur_rtde's controller-side watchdog (field note 17): the control script stops the program, and
 the arm, when this process has not written its command register for WATCHDOG_S seconds. It is
-kicked four times per window for as long as the parent's pipe is open, idle or busy, so the
-program stops about WATCHDOG_S after the parent dies or this process does (SIGKILL, a crash, a
-power cut)."""
+kicked eight times per window (a kick is one register write, no round trip) for as long as the
+parent's pipe is open, idle or busy, so the program stops about WATCHDOG_S after the parent dies
+or this process does (SIGKILL, a crash, a power cut)."""
 REMOTE_CONTROL_SINCE_MAJOR = 5
 """PolyScope 5 (e-Series) introduced Remote Control; CB3 controllers run PolyScope 3."""
 # robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING (not imported: see above).
