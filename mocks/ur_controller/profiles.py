@@ -56,6 +56,10 @@ PROFILES: dict[str, Profile] = {
                          dashboard=True, control_script_running=False),
     "cb3": _profile("cb3", (3, 15, 8, 106339), 125.0, tuple(CB3_MODELS), "ur5",
                     dashboard=True, control_script_running=False),
+    # An older e-Series for clients that only read: no Remote Control (5.6) and no tcp_offset
+    # output (5.5.1); ur_rtde 1.6.5's control interface is not meant to run against it.
+    "e-series-5.4": _profile("e-series-5.4", (5, 4, 3, 77771), 500.0, tuple(MODELS), "ur5e",
+                             dashboard=True, control_script_running=False),
     "polyscope-x": _profile("polyscope-x", (10, 7, 0, 1234), 500.0, tuple(MODELS), "ur5e",
                             dashboard=False, control_script_running=True),
 }

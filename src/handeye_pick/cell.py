@@ -31,7 +31,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from datetime import datetime, timezone
 from pathlib import Path
 from types import TracebackType
@@ -49,7 +49,7 @@ from handeye_pick.errors import (
     RobotFault,
     SafetyRefusal,
 )
-from handeye_pick.geometry import Transform, compose, ur_pose_list
+from handeye_pick.geometry import Transform, compose, invert, ur_pose_list
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
 from handeye_pick.pick import (
     JointMove,
@@ -72,12 +72,15 @@ from handeye_pick.pick import (
 from handeye_pick.plausibility import chain_problems
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
+from handeye_pick.robot.readout import read_controller
 from handeye_pick.safety import (  # PreflightRefusal: part of this module's API
     CheckResult,
     ControllerVerdicts,
     PreflightRefusal,
     cell_readiness_problems,
+    controller_problems,
     tcp_offset_difference,
+    tcp_offset_problems,
     workspace_problem,
 )
 
@@ -173,6 +176,8 @@ class CellStatus:
     T_base_tcp: Transform | None
     T_base_cam: Transform | None
     tcp_outside_workspace: str | None
+    program_state: str | None = None  # the dashboard's programState (``inspect`` only)
+    loaded_program: str | None = None  # the dashboard's loaded program (``inspect`` only)
 
 
 def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
@@ -350,6 +355,60 @@ class Cell:
             tolerance_deg=robot.tcp_offset_tolerance_deg,
         )
         return self._status(problems, state, T_flange_tcp, self._arm.flange_pose())
+
+    def inspect(self) -> CellStatus:
+        """The cell's state read from outside, for ``status`` (``robot.readout``): no program is
+        started and nothing is written, so the controller is left exactly as it was found, and
+        it works beside another session that is driving the arm. Needs no ``connect``.
+
+        Ready means a pick could start now: the controller checks a pick makes, the active TCP
+        offset against the config, and no program running on the controller (a pick would stop
+        it: a pendant program, or another session mid-pick).
+        """
+        robot = self.config.robot
+        with self.progress.step(f"reading {robot.host}"):
+            readout = read_controller(robot.host)
+        problems = controller_problems(readout.status)
+        if readout.program_running:
+            problems.append(
+                f"a program is running on the controller ({readout.program_state}): a pick "
+                "would stop it; stop it on the pendant, or let the session that runs it finish"
+            )
+        T_flange_tcp = readout.T_flange_tcp
+        if T_flange_tcp is None:
+            problems.append(
+                "this controller does not serve tcp_offset over RTDE (PolyScope 3.12.3 and "
+                "5.5.1 on do), so status cannot check the active TCP offset without stopping "
+                "the controller's program: update PolyScope, or check with pick --dry-run"
+            )
+            return CellStatus(
+                ready=False,
+                problems=problems,
+                halted=None,
+                robot=readout.status,
+                T_flange_tcp=None,
+                tcp_offset_difference=None,
+                T_base_flange=None,
+                T_base_tcp=readout.T_base_tcp,
+                T_base_cam=None,
+                tcp_outside_workspace=None,
+                program_state=readout.program_state,
+                loaded_program=readout.loaded_program,
+            )
+        problems.extend(
+            tcp_offset_problems(
+                T_flange_tcp,
+                robot.T_flange_tcp,
+                tolerance_mm=robot.tcp_offset_tolerance_mm,
+                tolerance_deg=robot.tcp_offset_tolerance_deg,
+            )
+        )
+        state = self._status(
+            problems, readout.status, T_flange_tcp, readout.T_base_tcp @ invert(T_flange_tcp)
+        )
+        return replace(
+            state, program_state=readout.program_state, loaded_program=readout.loaded_program
+        )
 
     def _status(
         self,

@@ -85,12 +85,12 @@ _STEP = 1e-6
 """Finite-difference step (m, rad) for propagating the measurement errors."""
 
 
-
 def _Rotation() -> Any:  # scipy has no type information
     """scipy's Rotation, imported on first use: the CLI must start without scipy."""
     from scipy.spatial.transform import Rotation
 
     return Rotation
+
 
 @dataclass(frozen=True)
 class MeasurementNoise:

@@ -281,12 +281,34 @@ def cell_readiness_problems(
     tolerance_mm: float,
     tolerance_deg: float,
 ) -> list[str]:
-    """Why the cell cannot start a pick, each with what to do on the pendant; empty when ready.
+    """Why a connected session cannot start a pick, each with what to do on the pendant; empty
+    when ready. The session's own control program must be running.
 
     ``T_flange_tcp_actual`` is the TCP offset active on the controller, ``T_flange_tcp_configured``
     the one in the cell config (both m); they must agree within the tolerances, or every target
     would be off by their difference.
     """
+    problems = controller_problems(status)
+    if status.runtime_state != RuntimeState.PLAYING:
+        problems.append(
+            "the remote control program is not running (runtime state "
+            f"{mode_name(RuntimeState, status.runtime_state)}): stop any program running on the "
+            "pendant and connect again"
+        )
+    problems.extend(
+        tcp_offset_problems(
+            T_flange_tcp_actual,
+            T_flange_tcp_configured,
+            tolerance_mm=tolerance_mm,
+            tolerance_deg=tolerance_deg,
+        )
+    )
+    return problems
+
+
+def controller_problems(status: RobotStatus) -> list[str]:
+    """Why the controller cannot run a pick whoever asks (remote control, stops, safety faults,
+    arm not running), each with what to do on the pendant; the program is judged by the caller."""
     problems = []
     safety = status.safety_mode
     if not status.remote_control:
@@ -322,20 +344,26 @@ def cell_readiness_problems(
             f"arm is not running (robot mode {mode_name(RobotMode, status.robot_mode)}): on the "
             "pendant power it on and release the brakes (ON, then START)"
         )
-    if status.runtime_state != RuntimeState.PLAYING:
-        problems.append(
-            "the remote control program is not running (runtime state "
-            f"{mode_name(RuntimeState, status.runtime_state)}): stop any program running on the "
-            "pendant and connect again"
-        )
-    offset_mm, offset_deg = tcp_offset_difference(T_flange_tcp_actual, T_flange_tcp_configured)
-    if offset_mm > tolerance_mm or offset_deg > tolerance_deg:
-        actual = np.round(matrix_to_ur_pose(T_flange_tcp_actual), 4).tolist()
-        configured = np.round(matrix_to_ur_pose(T_flange_tcp_configured), 4).tolist()
-        problems.append(
-            f"active TCP offset {actual} (m, rad) differs from robot.tcp_offset {configured} by "
-            f"{offset_mm:.1f} mm and {offset_deg:.2f} deg (tolerance {tolerance_mm:g} mm, "
-            f"{tolerance_deg:g} deg): select the right TCP on the pendant (Installation > "
-            "General > TCP) or correct robot.tcp_offset in the config"
-        )
     return problems
+
+
+def tcp_offset_problems(
+    T_flange_tcp_actual: Transform,
+    T_flange_tcp_configured: Transform,
+    *,
+    tolerance_mm: float,
+    tolerance_deg: float,
+) -> list[str]:
+    """The active TCP offset against the configured one (both m), as a problem list (empty or
+    one entry naming both offsets, the difference and the tolerances)."""
+    offset_mm, offset_deg = tcp_offset_difference(T_flange_tcp_actual, T_flange_tcp_configured)
+    if offset_mm <= tolerance_mm and offset_deg <= tolerance_deg:
+        return []
+    actual = np.round(matrix_to_ur_pose(T_flange_tcp_actual), 4).tolist()
+    configured = np.round(matrix_to_ur_pose(T_flange_tcp_configured), 4).tolist()
+    return [
+        f"active TCP offset {actual} (m, rad) differs from robot.tcp_offset {configured} by "
+        f"{offset_mm:.1f} mm and {offset_deg:.2f} deg (tolerance {tolerance_mm:g} mm, "
+        f"{tolerance_deg:g} deg): select the right TCP on the pendant (Installation > "
+        "General > TCP) or correct robot.tcp_offset in the config"
+    ]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import pty
+import socket
 import subprocess
 from collections.abc import Callable
 from pathlib import Path
@@ -22,6 +23,8 @@ import pytest
 from handeye_pick.calibration import load_hand_eye
 from handeye_pick.geometry import ur_pose_to_matrix
 from handeye_pick.plot import FIGURE_SIZE_PX
+from handeye_pick.robot.port import RuntimeState
+from handeye_pick.robot.ur_rtde_arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 from tests.integration.test_pick_cli import CLI, audit_records
@@ -85,10 +88,11 @@ def test_status_ready(sim_controller: SimFactory, tmp_path: Path) -> None:
     assert report["ready"] is True
     assert report["problems"] == []
     assert report["controller_version"]
+    # status starts no program: the controller's runtime state is the one it was found in
     assert (report["robot_mode"], report["safety_mode"], report["runtime_state"]) == (
         "RUNNING",
         "NORMAL",
-        "PLAYING",
+        "STOPPED",
     )
     assert report["remote_control"] is True
     assert report["tcp_offset_matches"] is True
@@ -100,6 +104,80 @@ def test_status_ready(sim_controller: SimFactory, tmp_path: Path) -> None:
     human = cli("status", "--config", str(write_config(tmp_path, ctl.host)))
     assert human.returncode == 0
     assert "READY to pick" in human.stdout
+
+
+def _dashboard(host: str, *commands: str) -> list[str]:
+    with socket.create_connection((host, 29999), timeout=5.0) as sock:
+        reader = sock.makefile("r")
+        reader.readline()  # banner
+        answers = []
+        for command in commands:
+            sock.sendall(command.encode() + b"\n")
+            answers.append(reader.readline().strip())
+        return answers
+
+
+def test_status_leaves_the_controller_as_it_found_it(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    _dashboard(ctl.host, "load /programs/pick.urp")
+    before = _dashboard(ctl.host, "programState", "get loaded program", "running")
+    assert before[0] == "STOPPED pick.urp"
+    status, report = cli_json("status", "--config", str(write_config(tmp_path, ctl.host)))
+    assert status == 0, report
+    assert (report["program_state"], report["loaded_program"]) == (
+        "STOPPED pick.urp",
+        "/programs/pick.urp",
+    )
+    assert _dashboard(ctl.host, "programState", "get loaded program", "running") == before
+    assert ctl.snapshot().runtime_state == RuntimeState.STOPPED
+    assert ctl.commands == []
+
+
+def test_status_beside_a_running_session_does_not_disturb_it(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
+        status, report = cli_json("status", "--config", str(write_config(tmp_path, ctl.host)))
+        assert status == 3, report
+        assert report["program_state"] == "PLAYING rtde_control"
+        assert report["tcp_offset_matches"] is True  # read without the session's program
+        assert len(report["problems"]) == 1
+        assert "a program is running on the controller" in report["problems"][0]
+        # the session's program still runs and still moves the arm
+        assert arm.status().runtime_state == RuntimeState.PLAYING
+        T_base_tcp = arm.tcp_pose()
+        T_base_tcp[2, 3] += 0.01
+        arm.move_linear(T_base_tcp, 0.1, 0.5, timeout_s=10.0)
+    assert [command["kind"] for command in ctl.commands] == ["moveL"]
+
+
+def test_status_of_a_controller_without_tcp_offset_output_says_so(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(profile="e-series-5.4", tcp_offset=TCP_OFFSET, instant=True)
+    status, report = cli_json("status", "--config", str(write_config(tmp_path, ctl.host)))
+    assert status == 3, report
+    assert report["controller_version"] == "5.4.3.77771"
+    assert report["remote_control"] is True  # no Remote Control before 5.6: nothing to be in
+    assert "tcp_offset" not in report
+    assert len(report["problems"]) == 1
+    assert "does not serve tcp_offset" in report["problems"][0]
+
+
+@pytest.mark.parametrize("profile", ["polyscope-x", None])
+def test_status_without_an_answer_exits_4_in_one_line(
+    sim_controller: SimFactory, tmp_path: Path, profile: str | None
+) -> None:
+    ctl = sim_controller(profile=profile or "e-series", tcp_offset=TCP_OFFSET, instant=True)
+    if profile is None:
+        ctl.stop()  # nothing listens at the address any more
+    result = cli("status", "--quiet", "--config", str(write_config(tmp_path, ctl.host)))
+    assert result.returncode == 4, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert ("PolyScope X" in result.stderr) == (profile is not None), result.stderr
 
 
 def test_status_protective_stop_is_not_ready(sim_controller: SimFactory, tmp_path: Path) -> None:

@@ -3,7 +3,7 @@
 - ``plan``: the pick's planning (same chain, same targets) drawn to a PNG; moves nothing. The
   flange comes from ``--robot-pose`` / ``--robot-pose-ur`` or, without them, from the live robot.
 - ``status``: one screen that says whether the cell is ready to pick (exit 0) or not (exit 3,
-  with every reason).
+  with every reason), read without taking the controller over.
 - ``touch-test``: a camera point driven to a stand-off above it with the pick's own sequence
   (readiness, pre-flight checks, audit, slow descent), then back up, so the operator sees
   whether the tool tip lands on the point.
@@ -33,7 +33,7 @@ from handeye_pick.cli.common import (
     camera_point_mm_from_args,
     robot_pose_from_args,
 )
-from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
+from handeye_pick.errors import HandEyePickError, InputError
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -65,9 +65,11 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     status = sub.add_parser(
         "status",
         help="is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons), 4 no answer",
-        description="Connect and show controller version, robot and safety mode, runtime "
-        "state, remote control, the active TCP offset against the config, the flange pose, "
-        "T_base_cam and whether the workspace box holds the current TCP.",
+        description="Read the controller without taking it over (no program is started, nothing "
+        "is written: it is left as found, and a running session is not disturbed) and show "
+        "controller version, robot and safety mode, runtime state, the program, remote control, "
+        "the active TCP offset against the config, the flange pose, T_base_cam and whether the "
+        "workspace box holds the current TCP.",
     )
     add_config_arg(status)
     _add_json_arg(status)
@@ -182,20 +184,16 @@ def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float
 
 
 def run_status(args: argparse.Namespace) -> int:
-    """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons."""
+    """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons.
+
+    Reads from outside (``Cell.inspect``): no program is started, so the controller is left as
+    it was found, and no audit file is opened, so it works beside a running session."""
     from handeye_pick.cell import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
     config = cell.config
     report: dict[str, object] = {"config": str(config.path), "host": config.robot.host}
-    try:
-        with cell:
-            state = cell.status()
-    except SafetyRefusal as exc:
-        # ur_rtde could not start its control program: that is the reason the cell is not ready.
-        report.update(ready=False, problems=[str(exc)])
-        _print_status(report, [str(exc)], args.json)
-        return EXIT_REFUSED
+    state = cell.inspect()
     report.update(_status_fields(cell, state))
     _print_status(report, state.problems, args.json)
     return 0 if state.ready else EXIT_REFUSED
@@ -206,7 +204,7 @@ def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
 
     robot_config = cell.config.robot
     robot, tcp, diff = state.robot, state.T_flange_tcp, state.tcp_offset_difference
-    if robot is None or tcp is None or diff is None or state.T_base_flange is None:
+    if robot is None:
         return {"ready": False, "problems": state.problems}
     fields: dict[str, object] = {
         "ready": state.ready,
@@ -215,7 +213,13 @@ def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
         "robot_mode": mode_name(RobotMode, robot.robot_mode),
         "safety_mode": mode_name(SafetyMode, robot.safety_mode),
         "runtime_state": mode_name(RuntimeState, robot.runtime_state),
+        "program_state": state.program_state,
+        "loaded_program": state.loaded_program,
         "remote_control": robot.remote_control,
+    }
+    if tcp is None or diff is None or state.T_base_flange is None:
+        return fields
+    fields |= {
         "tcp_offset": ur_pose_list(tcp),
         "tcp_offset_configured": ur_pose_list(robot_config.T_flange_tcp),
         "tcp_offset_matches": diff[0] <= robot_config.tcp_offset_tolerance_mm
@@ -244,6 +248,8 @@ def _print_status(report: dict[str, object], problems: list[str], as_json: bool)
         ("robot_mode", "robot mode"),
         ("safety_mode", "safety mode"),
         ("runtime_state", "runtime state"),
+        ("program_state", "program"),
+        ("loaded_program", "loaded program"),
         ("remote_control", "remote control"),
         ("tcp_offset", "TCP offset"),
         ("tcp_offset_configured", "TCP in config"),

@@ -1,0 +1,237 @@
+"""Read a UR controller without taking it over: what ``status`` shows.
+
+ur_rtde's control interface uploads its own program when it connects, which stops whatever the
+controller was running (a pendant program, or another handeye-pick session mid-pick) and leaves
+``rtde_control`` as the controller's program. A status check must leave the controller as it
+found it, so this module sends no program and writes nothing: one RTDE output package and a few
+dashboard queries, both plain sockets with bounded waits.
+
+It speaks RTDE itself rather than through ``rtde_receive``: ur_rtde 1.6.5's receive interface
+cannot read ``tcp_offset`` (its type map lacks the field), and only the control interface can
+ask for the TCP offset. The subset used is UR's RTDE guide, protocol version 2: request the
+protocol version, set up one output recipe, start, read one data package, close. An RTDE output
+connection claims no inputs, so it is allowed next to a running session.
+
+Frames and units as in robot/port.py: ``T_base_tcp`` is ``actual_TCP_pose`` (includes the active
+TCP offset), ``T_flange_tcp`` is ``tcp_offset``, both from the same controller cycle, so
+``T_base_flange = T_base_tcp @ inv(T_flange_tcp)`` is consistent.
+"""
+
+from __future__ import annotations
+
+import re
+import socket
+import struct
+from dataclasses import dataclass
+
+from handeye_pick.errors import RobotConnectionError
+from handeye_pick.geometry import Transform, ur_pose_to_matrix
+from handeye_pick.robot.port import RobotStatus, RuntimeState
+
+RTDE_PORT = 30004
+DASHBOARD_PORT = 29999
+TIMEOUT_S = 2.0
+"""Every connect, request and reply gets this long; a controller that answers nothing in 2 s is
+not one to judge (RTDE streams at 125 or 500 Hz, the dashboard answers in milliseconds)."""
+FREQUENCY_HZ = 25.0
+"""Output rate asked for: one package is read, so the first one arrives within 40 ms. Valid on
+CB3 (at most 125 Hz) and e-Series (500 Hz)."""
+MAX_DASHBOARD_LINE = 4096
+
+_PROTOCOL_VERSION = 2
+_REQUEST_PROTOCOL_VERSION = ord("V")
+_SETUP_OUTPUTS = ord("O")
+_START = ord("S")
+_DATA_PACKAGE = ord("U")
+_HEADER = struct.Struct(">HB")  # package size including the header, package type
+
+# The fields read and their RTDE types (UR's RTDE guide).
+_FIELDS: tuple[tuple[str, str], ...] = (
+    ("timestamp", "DOUBLE"),
+    ("actual_TCP_pose", "VECTOR6D"),
+    ("robot_mode", "INT32"),
+    ("safety_mode", "INT32"),
+    ("safety_status_bits", "UINT32"),
+    ("runtime_state", "UINT32"),
+    ("tcp_offset", "VECTOR6D"),
+)
+_OPTIONAL = ("tcp_offset",)
+"""Served from PolyScope 3.12.3 / 5.5.1 only; an older controller answers NOT_FOUND."""
+_FORMATS = {"DOUBLE": "d", "VECTOR6D": "6d", "INT32": "i", "UINT32": "I"}
+_PROTECTIVE_STOPPED_BIT = 2
+_EMERGENCY_STOPPED_BIT = 7
+"""``safety_status_bits``: bit 2 is protective stopped, bit 7 emergency stopped (either kind)."""
+REMOTE_CONTROL_SINCE = (5, 6)
+"""PolyScope 5.6 introduced Remote Control (and the dashboard's ``is in remote control``); a CB3
+or an older e-Series has no local mode to be in."""
+
+
+@dataclass(frozen=True)
+class ControllerReadout:
+    """One look at the controller from outside.
+
+    ``program_state`` is the dashboard's ``programState`` answer (``STOPPED pick.urp``,
+    ``PLAYING rtde_control``), ``loaded_program`` its ``get loaded program`` path or None.
+    ``T_flange_tcp`` is None when the controller does not serve ``tcp_offset`` over RTDE.
+    """
+
+    status: RobotStatus
+    T_base_tcp: Transform
+    T_flange_tcp: Transform | None
+    program_state: str
+    loaded_program: str | None
+
+    @property
+    def program_running(self) -> bool:
+        """Whether a program runs or is paused: a pick would stop it to start its own."""
+        return self.status.runtime_state != RuntimeState.STOPPED
+
+
+def read_controller(host: str) -> ControllerReadout:
+    """Read ``host`` once over RTDE and the dashboard; sends no program and no command.
+
+    Raises ``RobotConnectionError`` naming the port when a socket fails or a reply does not
+    follow the protocol.
+    """
+    values = _read_rtde(host)
+    version, remote, program_state, loaded = _ask_dashboard(host)
+    bits = int(values["safety_status_bits"][0])
+    status = RobotStatus(
+        controller_version=version,
+        robot_mode=int(values["robot_mode"][0]),
+        safety_mode=int(values["safety_mode"][0]),
+        runtime_state=int(values["runtime_state"][0]),
+        remote_control=remote,
+        protective_stopped=bool(bits >> _PROTECTIVE_STOPPED_BIT & 1),
+        emergency_stopped=bool(bits >> _EMERGENCY_STOPPED_BIT & 1),
+    )
+    offset = values.get("tcp_offset")
+    return ControllerReadout(
+        status=status,
+        T_base_tcp=ur_pose_to_matrix(list(values["actual_TCP_pose"])),
+        T_flange_tcp=None if offset is None else ur_pose_to_matrix(list(offset)),
+        program_state=program_state,
+        loaded_program=loaded,
+    )
+
+
+def _read_rtde(host: str) -> dict[str, tuple[float, ...]]:
+    """The fields of one RTDE data package, by name (a scalar as a 1-tuple)."""
+    try:
+        with socket.create_connection((host, RTDE_PORT), timeout=TIMEOUT_S) as sock:
+            sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            _request(sock, _REQUEST_PROTOCOL_VERSION, struct.pack(">H", _PROTOCOL_VERSION))
+            if _reply(sock, _REQUEST_PROTOCOL_VERSION)[:1] != b"\x01":
+                raise _Protocol(f"the controller refused RTDE protocol {_PROTOCOL_VERSION}")
+            names = [name for name, _ in _FIELDS]
+            recipe_id, types = _setup_outputs(sock, names)
+            missing = [name for name, kind in zip(names, types, strict=True) if kind == "NOT_FOUND"]
+            if missing and set(missing) <= set(_OPTIONAL):
+                names = [name for name in names if name not in missing]
+                recipe_id, types = _setup_outputs(sock, names)
+            expected = dict(_FIELDS)
+            if recipe_id == 0 or types != [expected[name] for name in names]:
+                raise _Protocol(f"output recipe for {names} answered with types {types}")
+            _request(sock, _START, b"")
+            if _reply(sock, _START)[:1] != b"\x01":
+                raise _Protocol("the controller refused to start the RTDE output")
+            return _unpack(_reply(sock, _DATA_PACKAGE), recipe_id, names, types)
+    except (OSError, _Protocol, struct.error) as exc:
+        raise RobotConnectionError(
+            f"cell {host}: could not read RTDE port {RTDE_PORT} ({exc or type(exc).__name__})"
+        ) from exc
+
+
+def _setup_outputs(sock: socket.socket, names: list[str]) -> tuple[int, list[str]]:
+    payload = struct.pack(">d", FREQUENCY_HZ) + ",".join(names).encode("ascii")
+    _request(sock, _SETUP_OUTPUTS, payload)
+    reply = _reply(sock, _SETUP_OUTPUTS)
+    if not reply:
+        raise _Protocol("empty output setup reply")
+    return reply[0], reply[1:].decode("ascii", errors="replace").split(",")
+
+
+def _unpack(
+    payload: bytes, recipe_id: int, names: list[str], types: list[str]
+) -> dict[str, tuple[float, ...]]:
+    layout = struct.Struct(">B" + "".join(_FORMATS[kind] for kind in types))
+    if len(payload) != layout.size or payload[0] != recipe_id:
+        raise _Protocol(f"data package of {len(payload)} bytes, expected {layout.size}")
+    flat = layout.unpack(payload)[1:]
+    values: dict[str, tuple[float, ...]] = {}
+    at = 0
+    for name, kind in zip(names, types, strict=True):
+        width = 6 if kind == "VECTOR6D" else 1
+        values[name] = tuple(float(v) for v in flat[at : at + width])
+        at += width
+    return values
+
+
+def _request(sock: socket.socket, package_type: int, payload: bytes) -> None:
+    sock.sendall(_HEADER.pack(_HEADER.size + len(payload), package_type) + payload)
+
+
+def _reply(sock: socket.socket, package_type: int) -> bytes:
+    """The payload of the next package of ``package_type``; packages of other types (text
+    messages the controller may send at any time) are skipped."""
+    while True:
+        size, kind = _HEADER.unpack(_receive(sock, _HEADER.size))
+        if size < _HEADER.size:
+            raise _Protocol(f"package size {size} is shorter than its header")
+        payload = _receive(sock, size - _HEADER.size)
+        if kind == package_type:
+            return payload
+
+
+def _receive(sock: socket.socket, count: int) -> bytes:
+    data = bytearray()
+    while len(data) < count:
+        chunk = sock.recv(count - len(data))
+        if not chunk:
+            raise _Protocol("the controller closed the connection")
+        data += chunk
+    return bytes(data)
+
+
+def _ask_dashboard(host: str) -> tuple[str, bool, str, str | None]:
+    """Controller version, remote control, ``programState`` and the loaded program's path."""
+    try:
+        with socket.create_connection((host, DASHBOARD_PORT), timeout=TIMEOUT_S) as sock:
+            reader = sock.makefile("r", encoding="utf-8", errors="replace", newline="\n")
+
+            def ask(command: str) -> str:
+                sock.sendall(command.encode("ascii") + b"\n")
+                answer = reader.readline(MAX_DASHBOARD_LINE)
+                if not answer:
+                    raise _Protocol(f"no answer to {command!r}")
+                return answer.strip()
+
+            reader.readline(MAX_DASHBOARD_LINE)  # banner
+            found = re.search(r"\d+(\.\d+)+", ask("PolyscopeVersion"))
+            if found is None:
+                raise _Protocol("PolyscopeVersion answered without a version")
+            version = found.group(0)
+            major_minor = tuple(int(part) for part in version.split(".")[:2])
+            remote = (
+                ask("is in remote control").lower() == "true"
+                if major_minor >= REMOTE_CONTROL_SINCE
+                else True
+            )
+            program_state = ask("programState")
+            loaded = ask("get loaded program")
+    except (OSError, _Protocol) as exc:
+        raise RobotConnectionError(
+            f"cell {host}: the dashboard server (port {DASHBOARD_PORT}) does not answer "
+            f"({exc or type(exc).__name__}); PolyScope X has none, and handeye-pick needs it"
+        ) from exc
+    prefix = "loaded program:"
+    return (
+        version,
+        remote,
+        program_state,
+        loaded[len(prefix) :].strip() if loaded.lower().startswith(prefix) else None,
+    )
+
+
+class _Protocol(Exception):
+    """A reply that does not follow the protocol."""
