@@ -22,6 +22,7 @@ from __future__ import annotations
 import re
 import socket
 import struct
+import time
 from dataclasses import dataclass
 
 from handeye_pick.errors import RobotConnectionError
@@ -173,14 +174,16 @@ def _request(sock: socket.socket, package_type: int, payload: bytes) -> None:
 
 def _reply(sock: socket.socket, package_type: int) -> bytes:
     """The payload of the next package of ``package_type``; packages of other types (text
-    messages the controller may send at any time) are skipped."""
-    while True:
+    messages the controller may send at any time) are skipped, for at most ``TIMEOUT_S``."""
+    deadline = time.monotonic() + TIMEOUT_S
+    while time.monotonic() < deadline:
         size, kind = _HEADER.unpack(_receive(sock, _HEADER.size))
         if size < _HEADER.size:
             raise _Protocol(f"package size {size} is shorter than its header")
         payload = _receive(sock, size - _HEADER.size)
         if kind == package_type:
             return payload
+    raise _Protocol(f"no {chr(package_type)!r} package within {TIMEOUT_S} s")
 
 
 def _receive(sock: socket.socket, count: int) -> bytes:
