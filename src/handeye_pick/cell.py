@@ -447,14 +447,30 @@ class Cell:
     def plan(self, detection: Detection, T_base_flange: Transform | None = None) -> PickPlan:
         """The pick's chain and targets for ``detection``, moving nothing and checking nothing
         on the controller. With ``T_base_flange`` (m, the flange at acquisition) no robot is
-        needed and the config's TCP offset is used; without it the connected robot's flange
-        pose and active TCP offset are read now."""
+        needed and the config's TCP offset is used; without it the robot's flange pose and
+        active TCP offset are read now: from the session when connected, otherwise from outside
+        like ``inspect`` (no program started, the controller left as found)."""
         if T_base_flange is not None:
             T_flange_tcp = self.config.robot.T_flange_tcp
+        elif self._arm is not None:
+            T_flange_tcp = self._arm.tcp_offset()
+            T_base_flange = self._arm.flange_pose()
         else:
-            T_flange_tcp = self.arm.tcp_offset()
-            T_base_flange = self.arm.flange_pose()
+            T_flange_tcp, T_base_flange = self._flange_from_outside()
         return chain_plan(self.config, self.calibration, detection, T_base_flange, T_flange_tcp)
+
+    def _flange_from_outside(self) -> tuple[Transform, Transform]:
+        """``(T_flange_tcp, T_base_flange)`` (m) from one RTDE package read from outside."""
+        host = self.config.robot.host
+        with self.progress.step(f"reading {host}"):
+            readout = read_controller(host)
+        if readout.T_flange_tcp is None:
+            raise RobotFault(
+                f"cell {host}: the controller serves no tcp_offset over RTDE (PolyScope older "
+                "than 3.12.3 / 5.5.1), so the flange pose cannot be read without starting a "
+                "program: give the flange pose (--robot-pose or --robot-pose-ur)"
+            )
+        return readout.T_flange_tcp, readout.T_base_tcp @ invert(readout.T_flange_tcp)
 
     # --- capture -----------------------------------------------------------------------------
 

@@ -219,11 +219,14 @@ def test_plan_live_matches_the_pick_dry_run_and_moves_nothing(
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     config = write_config(tmp_path, ctl.host)
     png = tmp_path / "plan.png"
+    before = _dashboard(ctl.host, "programState", "running")
     status, report = cli_json(
         "plan", "--config", str(config), "--xyz", *POINT_CAM_MM, "--plot", str(png)
     )
     assert status == 0, report
     assert ctl.commands == []
+    assert _dashboard(ctl.host, "programState", "running") == before  # no program started
+    assert not (tmp_path / "picks.jsonl").exists()  # nothing moved, nothing to audit
     assert matplotlib.image.imread(png).shape[:2] == (FIGURE_SIZE_PX[1], FIGURE_SIZE_PX[0])
     np.testing.assert_allclose(
         ur_pose_to_matrix(report["object_pose"])[:3, 3], expected_point_base_m(ctl), atol=1e-9

@@ -123,8 +123,7 @@ def run_plan(args: argparse.Namespace) -> int:
     detection = detection_from_args(args)
     T_base_flange = robot_pose_from_args(args)
     if T_base_flange is None:
-        with cell:
-            plan = cell.plan(detection)
+        plan = cell.plan(detection)  # read from outside: no program started, no audit
         flange_source = f"live robot {config.robot.host}"
     else:
         # Offline: the TCP the config expects on the pendant.
