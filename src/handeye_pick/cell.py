@@ -369,6 +369,12 @@ class Cell:
         with self.progress.step(f"reading {robot.host}"):
             readout = read_controller(robot.host)
         problems = controller_problems(readout.status)
+        if readout.dashboard_problem is not None:
+            problems.append(
+                f"{readout.dashboard_problem}: handeye-pick needs it to run a pick (ur_rtde 1.6.5 "
+                "starts its control program through it); on PolyScope 5 enable it under "
+                "Settings > Security > Services"
+            )
         if readout.program_running:
             problems.append(
                 f"a program is running on the controller ({readout.program_state}): a pick "

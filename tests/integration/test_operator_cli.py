@@ -167,17 +167,28 @@ def test_status_of_a_controller_without_tcp_offset_output_says_so(
     assert "does not serve tcp_offset" in report["problems"][0]
 
 
-@pytest.mark.parametrize("profile", ["polyscope-x", None])
 def test_status_without_an_answer_exits_4_in_one_line(
-    sim_controller: SimFactory, tmp_path: Path, profile: str | None
+    sim_controller: SimFactory, tmp_path: Path
 ) -> None:
-    ctl = sim_controller(profile=profile or "e-series", tcp_offset=TCP_OFFSET, instant=True)
-    if profile is None:
-        ctl.stop()  # nothing listens at the address any more
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    ctl.stop()  # nothing listens at the address any more
     result = cli("status", "--quiet", "--config", str(write_config(tmp_path, ctl.host)))
     assert result.returncode == 4, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
-    assert ("PolyScope X" in result.stderr) == (profile is not None), result.stderr
+    assert "RTDE port 30004" in result.stderr
+
+
+def test_status_of_polyscope_x_reads_rtde_alone(sim_controller: SimFactory, tmp_path: Path) -> None:
+    # Field note 22: PolyScope X has no dashboard server; remote control does not apply there.
+    ctl = sim_controller(profile="polyscope-x", tcp_offset=TCP_OFFSET, instant=True)
+    status, report = cli_json("status", "--config", str(write_config(tmp_path, ctl.host)))
+    assert status == 3, report
+    assert report["controller_version"] == "10.7.0.1234"
+    assert (report["runtime_state"], report["program_state"]) == ("PLAYING", None)
+    assert report["tcp_offset_matches"] is True
+    assert len(report["problems"]) == 2, report["problems"]
+    assert "PolyScope X has none" in report["problems"][0]
+    assert "a program is running" in report["problems"][1]
 
 
 def test_status_protective_stop_is_not_ready(sim_controller: SimFactory, tmp_path: Path) -> None:

@@ -19,7 +19,6 @@ TCP offset), ``T_flange_tcp`` is ``tcp_offset``, both from the same controller c
 
 from __future__ import annotations
 
-import re
 import socket
 import struct
 import time
@@ -41,6 +40,7 @@ MAX_DASHBOARD_LINE = 4096
 
 _PROTOCOL_VERSION = 2
 _REQUEST_PROTOCOL_VERSION = ord("V")
+_GET_URCONTROL_VERSION = ord("v")
 _SETUP_OUTPUTS = ord("O")
 _START = ord("S")
 _DATA_PACKAGE = ord("U")
@@ -74,13 +74,16 @@ class ControllerReadout:
     ``program_state`` is the dashboard's ``programState`` answer (``STOPPED pick.urp``,
     ``PLAYING rtde_control``), ``loaded_program`` its ``get loaded program`` path or None.
     ``T_flange_tcp`` is None when the controller does not serve ``tcp_offset`` over RTDE.
+    ``dashboard_problem`` says why the dashboard could not be asked (PolyScope X has no dashboard
+    server); the RTDE part is then all there is, with ``remote_control`` not applicable (True).
     """
 
     status: RobotStatus
     T_base_tcp: Transform
     T_flange_tcp: Transform | None
-    program_state: str
+    program_state: str | None
     loaded_program: str | None
+    dashboard_problem: str | None
 
     @property
     def program_running(self) -> bool:
@@ -91,14 +94,18 @@ class ControllerReadout:
 def read_controller(host: str) -> ControllerReadout:
     """Read ``host`` once over RTDE and the dashboard; sends no program and no command.
 
-    Raises ``RobotConnectionError`` naming the port when a socket fails or a reply does not
-    follow the protocol.
+    Raises ``RobotConnectionError`` naming the port when the RTDE socket fails or a reply does
+    not follow the protocol; a dashboard that does not answer is a ``dashboard_problem``.
     """
-    values = _read_rtde(host)
-    version, remote, program_state, loaded = _ask_dashboard(host)
+    values, version = _read_rtde(host)
+    remote, program_state, loaded, dashboard_problem = True, None, None, None
+    try:
+        remote, program_state, loaded = _ask_dashboard(host, version)
+    except RobotConnectionError as exc:
+        dashboard_problem = str(exc)
     bits = int(values["safety_status_bits"][0])
     status = RobotStatus(
-        controller_version=version,
+        controller_version=".".join(str(part) for part in version),
         robot_mode=int(values["robot_mode"][0]),
         safety_mode=int(values["safety_mode"][0]),
         runtime_state=int(values["runtime_state"][0]),
@@ -113,17 +120,21 @@ def read_controller(host: str) -> ControllerReadout:
         T_flange_tcp=None if offset is None else ur_pose_to_matrix(list(offset)),
         program_state=program_state,
         loaded_program=loaded,
+        dashboard_problem=dashboard_problem,
     )
 
 
-def _read_rtde(host: str) -> dict[str, tuple[float, ...]]:
-    """The fields of one RTDE data package, by name (a scalar as a 1-tuple)."""
+def _read_rtde(host: str) -> tuple[dict[str, tuple[float, ...]], tuple[int, ...]]:
+    """The fields of one RTDE data package, by name (a scalar as a 1-tuple), and the controller
+    version (major, minor, bugfix, build)."""
     try:
         with socket.create_connection((host, RTDE_PORT), timeout=TIMEOUT_S) as sock:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             _request(sock, _REQUEST_PROTOCOL_VERSION, struct.pack(">H", _PROTOCOL_VERSION))
             if _reply(sock, _REQUEST_PROTOCOL_VERSION)[:1] != b"\x01":
                 raise _Protocol(f"the controller refused RTDE protocol {_PROTOCOL_VERSION}")
+            _request(sock, _GET_URCONTROL_VERSION, b"")
+            version = struct.unpack(">4I", _reply(sock, _GET_URCONTROL_VERSION))
             names = [name for name, _ in _FIELDS]
             recipe_id, types = _setup_outputs(sock, names)
             missing = [name for name, kind in zip(names, types, strict=True) if kind == "NOT_FOUND"]
@@ -136,7 +147,7 @@ def _read_rtde(host: str) -> dict[str, tuple[float, ...]]:
             _request(sock, _START, b"")
             if _reply(sock, _START)[:1] != b"\x01":
                 raise _Protocol("the controller refused to start the RTDE output")
-            return _unpack(_reply(sock, _DATA_PACKAGE), recipe_id, names, types)
+            return _unpack(_reply(sock, _DATA_PACKAGE), recipe_id, names, types), version
     except (OSError, _Protocol, struct.error) as exc:
         raise RobotConnectionError(
             f"cell {host}: could not read RTDE port {RTDE_PORT} ({exc or type(exc).__name__})"
@@ -196,8 +207,8 @@ def _receive(sock: socket.socket, count: int) -> bytes:
     return bytes(data)
 
 
-def _ask_dashboard(host: str) -> tuple[str, bool, str, str | None]:
-    """Controller version, remote control, ``programState`` and the loaded program's path."""
+def _ask_dashboard(host: str, version: tuple[int, ...]) -> tuple[bool, str, str | None]:
+    """Remote control, ``programState`` and the loaded program's path."""
     try:
         with socket.create_connection((host, DASHBOARD_PORT), timeout=TIMEOUT_S) as sock:
             reader = sock.makefile("r", encoding="utf-8", errors="replace", newline="\n")
@@ -209,15 +220,11 @@ def _ask_dashboard(host: str) -> tuple[str, bool, str, str | None]:
                     raise _Protocol(f"no answer to {command!r}")
                 return answer.strip()
 
-            reader.readline(MAX_DASHBOARD_LINE)  # banner
-            found = re.search(r"\d+(\.\d+)+", ask("PolyscopeVersion"))
-            if found is None:
-                raise _Protocol("PolyscopeVersion answered without a version")
-            version = found.group(0)
-            major_minor = tuple(int(part) for part in version.split(".")[:2])
+            if not reader.readline(MAX_DASHBOARD_LINE):  # the banner
+                raise _Protocol("no banner")
             remote = (
                 ask("is in remote control").lower() == "true"
-                if major_minor >= REMOTE_CONTROL_SINCE
+                if version[:2] >= REMOTE_CONTROL_SINCE
                 else True
             )
             program_state = ask("programState")
@@ -225,11 +232,10 @@ def _ask_dashboard(host: str) -> tuple[str, bool, str, str | None]:
     except (OSError, _Protocol) as exc:
         raise RobotConnectionError(
             f"cell {host}: the dashboard server (port {DASHBOARD_PORT}) does not answer "
-            f"({exc or type(exc).__name__}); PolyScope X has none, and handeye-pick needs it"
+            f"({exc or type(exc).__name__}); PolyScope X has none"
         ) from exc
     prefix = "loaded program:"
     return (
-        version,
         remote,
         program_state,
         loaded[len(prefix) :].strip() if loaded.lower().startswith(prefix) else None,
