@@ -281,7 +281,7 @@ def _show(value: object) -> str:
         return "[" + ", ".join(f"{v:.4f}" for v in value) + "]"
     if isinstance(value, bool):
         return "yes" if value else "NO"
-    return str(value)
+    return "-" if value is None else str(value)
 
 
 # --- touch-test ---------------------------------------------------------------------------------
