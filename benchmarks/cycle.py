@@ -1,4 +1,5 @@
-"""Software overhead per capture/pick/place cycle: one session against one CLI process per cycle.
+"""Software overhead per capture/pick/place cycle: one session, one CLI process per cycle, and the
+bare ur_rtde calls a cycle cannot do without.
 
 Runs the simulated controller (500 Hz, instant motion) on 127.0.0.250 with the demo cell plus a
 place pose and no gripper (a gripper's settle time is a deliberate wait, not overhead), then:
@@ -6,7 +7,11 @@ place pose and no gripper (a gripper's settle time is a deliberate wait, not ove
 - session: one ``handeye_pick.Cell``; each cycle is ``capture()`` where the arm stands and
   ``pick()`` of one candidate, which places the part;
 - CLI: each cycle is one ``handeye-pick pick --capture-pose-ur ... --detection FILE`` process
-  (start Python, connect, upload ur_rtde's script, pick, place, exit) with the same inputs.
+  (start Python, connect, upload ur_rtde's script, pick, place, exit) with the same inputs;
+- bare ur_rtde: the floor, what any program pays the controller for the same cycle with no check
+  at all, straight from ur_rtde in this process: ``getTCPOffset``, ``getActualTCPPose``, two
+  ``isPoseWithinSafetyLimits`` and two ``getInverseKinematicsHasSolution``, and the six moves
+  as ur_rtde's synchronous ``moveL`` to the poses the session reached.
 
 Overhead of a cycle = its wall time minus the controller time spent moving during it, taken from
 the simulated controller's motion record. Also prints where a session cycle's time goes per
@@ -36,7 +41,12 @@ from handeye_pick.calibration import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.cell import connect_ur_rtde  # noqa: E402
 from handeye_pick.config import CellConfig, load_config  # noqa: E402
 from handeye_pick.detection import detection_from_point_mm  # noqa: E402
-from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
+from handeye_pick.geometry import (  # noqa: E402
+    invert,
+    transform_point,
+    ur_pose_list,
+    ur_pose_to_matrix,
+)
 from handeye_pick.robot.port import RobotArm  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
 
@@ -98,8 +108,9 @@ def _moving_s(ctl: SimulatedController, first_motion: int) -> tuple[float, int]:
 
 
 def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple[
-    list[float], dict[str, list[float]]
+    list[float], dict[str, list[float]], list[list[float]]
 ]:
+    """Overheads, seconds per arm call, and the TCP poses the last cycle's six moves reached."""
     seconds: dict[str, list[float]] = defaultdict(list)
 
     def connect(cell_config: CellConfig) -> RobotArm:
@@ -119,7 +130,38 @@ def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple
                 raise RuntimeError(f"cycle ended {result.status}")
             moving_s, count = _moving_s(ctl, count)
             overheads.append(wall_s - moving_s)
-    return overheads, seconds
+    return overheads, seconds, [ur_pose_list(T) for T in result.reached.values()]
+
+
+def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
+          moves: list[list[float]]) -> list[float]:
+    import rtde_control
+    import rtde_receive
+
+    receive = rtde_receive.RTDEReceiveInterface(HOST)
+    control = rtde_control.RTDEControlInterface(HOST)
+    motion = config.motion
+    overheads = []
+    count = len(ctl.motions)
+    try:
+        for _ in range(cycles):
+            start = time.perf_counter()
+            control.getTCPOffset()
+            receive.getActualTCPPose()
+            for pose in moves[:2]:
+                control.isPoseWithinSafetyLimits(pose)
+                control.getInverseKinematicsHasSolution(pose)
+            for pose in moves:
+                if not control.moveL(pose, motion.speed_mps, motion.accel_mps2):
+                    raise RuntimeError(f"bare moveL to {pose} refused")
+            wall_s = time.perf_counter() - start
+            moving_s, count = _moving_s(ctl, count)
+            overheads.append(wall_s - moving_s)
+    finally:
+        control.stopScript()
+        control.disconnect()
+        receive.disconnect()
+    return overheads
 
 
 def _cli(config_path: Path, config: CellConfig, ctl: SimulatedController, cycles: int,
@@ -161,18 +203,23 @@ def main() -> None:
         config_path = folder / "cell.yaml"
         config_path.write_text(CELL_YAML)
         config = load_config(config_path)
-        session, seconds = _session(config, ctl, args.cycles)
+        session, seconds, moves = _session(config, ctl, args.cycles)
         cli = _cli(config_path, config, ctl, args.cycles, folder)
+        bare = _bare(config, ctl, args.cycles, moves)
 
     print(f"software overhead per capture/pick/place cycle ({args.cycles} cycles each, "
           f"simulated controller at {HOST}, 500 Hz, instant motion)")
     rows: list[tuple[str, list[float]]] = [("one session (Cell)", session),
-                                           ("one CLI pick process per cycle", cli)]
+                                           ("one CLI pick process per cycle", cli),
+                                           ("bare ur_rtde, no checks", bare)]
     for name, values in rows:
         median, p90 = _stats(values)
         print(f"  {name:<34} median {median:8.1f} ms   p90 {p90:8.1f} ms")
     ratio = statistics.median(cli) / statistics.median(session)
     print(f"  CLI per cycle / session: {ratio:.1f} x (median)")
+    own = statistics.median(session) - statistics.median(bare)
+    print(f"  session - bare ur_rtde: {own * 1000.0:+.1f} ms per cycle (median): what the "
+          f"session's checks, watch, child process and audit cost beyond the controller calls")
     print("where a session cycle's time goes (per call, all cycles):")
     per_cycle: Callable[[list[float]], float] = lambda v: sum(v) * 1000.0 / args.cycles  # noqa: E731
     for name, values in sorted(seconds.items(), key=lambda item: -sum(item[1])):
