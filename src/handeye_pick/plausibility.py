@@ -95,7 +95,7 @@ WORKSPACE_VIEW_MARGIN_MM = 100.0
 CAMERA_RANGE_MM = (50.0, 5000.0)
 MAX_REACH_MM = 2000.0
 CAMERA_POSITION_TOLERANCE_MM = 100.0  # default; also how far apart a file and its inverse must be
-MAX_CAMERA_POSITION_TOLERANCE_MM = 500.0  # wider, and the check no longer tells anything apart
+MAX_CAMERA_POSITION_TOLERANCE_MM = 500.0  # wider, a file and its mirrored inverse may both fit
 
 CHECKS = (
     "camera-near-flange",
