@@ -66,6 +66,7 @@ class SettingNames:
     units: str
     invert: str
     acknowledge: str  # acknowledges one named plausibility check (see plausibility.py)
+    camera_position: str  # the camera's rough measured position, mm (see plausibility.py)
 
     @property
     def on_command_line(self) -> bool:
@@ -77,13 +78,18 @@ class SettingNames:
 
 
 COMMAND_LINE = SettingNames(
-    mode="--mode", units="--calibration-units", invert="--invert", acknowledge="--acknowledge"
+    mode="--mode",
+    units="--calibration-units",
+    invert="--invert",
+    acknowledge="--acknowledge",
+    camera_position="--camera-position-mm",
 )
 CELL_CONFIG = SettingNames(
     mode="hand_eye.mode",
     units="hand_eye.units",
     invert="hand_eye.invert",
     acknowledge="hand_eye.acknowledge",
+    camera_position="hand_eye.camera_position_mm",
 )
 
 

@@ -771,6 +771,7 @@ class Cell:
             detection.T_cam_obj,
             self.config.workspace,
             self.config.hand_eye.acknowledge,
+            measured=self.config.hand_eye.camera_position,
         )
         acknowledge = self.calibration.settings.acknowledge
         return [

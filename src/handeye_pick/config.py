@@ -33,7 +33,12 @@ from handeye_pick.limits import (
     MAX_SPEED_MPS,
     stop_decel_problem,
 )
-from handeye_pick.plausibility import CHECKS
+from handeye_pick.plausibility import (
+    CHECKS,
+    MAX_CAMERA_POSITION_TOLERANCE_MM,
+    MeasuredCamera,
+    measured_position_problem,
+)
 from handeye_pick.robot.port import OutputBank
 
 # Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
@@ -138,6 +143,9 @@ class HandEyeConfig:
     units: LengthUnit  # length unit of the file's translation ("mm" for Zivid)
     invert: bool = False  # the file was written the other way round (T_cam_flange / T_cam_base)
     acknowledge: tuple[str, ...] = ()  # plausibility checks this cell's unusual mount fails
+    # camera_position_mm (base frame for eye-to-hand, flange frame for eye-in-hand) and its
+    # tolerance: tells a file from its inverse; None when not measured
+    camera_position: MeasuredCamera | None = None
 
 
 @dataclass(frozen=True)
@@ -616,7 +624,18 @@ def _object(top: Fields) -> ObjectConfig:
 
 
 def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
-    hand_eye = top.section("hand_eye", ("mode", "file", "units", "invert", "acknowledge"))
+    hand_eye = top.section(
+        "hand_eye",
+        (
+            "mode",
+            "file",
+            "units",
+            "invert",
+            "acknowledge",
+            "camera_position_mm",
+            "camera_position_tolerance_mm",
+        ),
+    )
     mode = HandEyeMode(hand_eye.string("mode", choices=[m.value for m in HandEyeMode]))
     units: LengthUnit = "mm" if hand_eye.string("units", choices=("mm", "m")) == "mm" else "m"
     return HandEyeConfig(
@@ -625,7 +644,31 @@ def _hand_eye(top: Fields, folder: Path) -> HandEyeConfig:
         units=units,
         invert=hand_eye.boolean("invert", default=HandEyeConfig.invert),
         acknowledge=_acknowledged_checks(hand_eye) if hand_eye.has("acknowledge") else (),
+        camera_position=_measured_camera(hand_eye, mode),
     )
+
+
+def _measured_camera(hand_eye: Fields, mode: HandEyeMode) -> MeasuredCamera | None:
+    """``camera_position_mm`` and ``camera_position_tolerance_mm``; None when not measured."""
+    if not hand_eye.has("camera_position_mm"):
+        if hand_eye.has("camera_position_tolerance_mm"):
+            hand_eye.fail(
+                "camera_position_tolerance_mm",
+                f"applies to {hand_eye.path('camera_position_mm')}, which is not set",
+            )
+        return None
+    x, y, z = (float(v) for v in hand_eye.vector("camera_position_mm", 3))
+    problem = measured_position_problem(mode, (x, y, z))
+    if problem is not None:
+        hand_eye.fail("camera_position_mm", problem)
+    tolerance_mm = hand_eye.number(
+        "camera_position_tolerance_mm",
+        default=MeasuredCamera.tolerance_mm,
+        above=0.0,
+        maximum=MAX_CAMERA_POSITION_TOLERANCE_MM,
+        unit="mm",
+    )
+    return MeasuredCamera((x, y, z), tolerance_mm)
 
 
 def _acknowledged_checks(hand_eye: Fields) -> tuple[str, ...]:

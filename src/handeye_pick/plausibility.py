@@ -36,11 +36,28 @@ base origin; closer, it would sit inside the robot's base and shoulder. A wrist 
 
 ``camera-looks-at-workspace`` (eye-to-hand, needs a workspace): the optical axis, followed from
 the camera forward, passes through the workspace box grown by 100 mm on every side. An inverted
-file of a tilted camera looks away from the cell. Limit: a camera looking (nearly) straight down,
+file of a tilted camera looks away from the cell. A camera looking (nearly) straight down,
 inverted, is another camera looking straight down from the same height and distance from the
-base, mirrored about a vertical plane through the base origin; it is found only when that
-mirrored camera misses the box (or its object lands outside the workspace, which the pre-flight
-check refuses).
+base, mirrored about a vertical plane through the base origin (t' = -R^T t): it passes the three
+eye-to-hand checks whenever the mirrored camera still sees the box; the next two checks catch it.
+
+``camera-at-measured-position`` (both modes, when the camera's rough measured position is given:
+``hand_eye.camera_position_mm`` in a config, ``--camera-position-mm`` on the command line): the
+camera origin lies within the tolerance (default 100 mm: the optical origin is inside the camera
+body and a tape measure is rough) of the measured position, which is in the robot base frame for
+eye-to-hand and in the flange frame for eye-in-hand. When the inverse file's camera lies within
+it instead, the file looks inverted; otherwise the file, its mode or the measurement is wrong.
+
+``camera-position-measured`` (eye-to-hand, needs a workspace, when no position is measured and
+the file passes the three eye-to-hand checks): the inverse file fails one of those checks too,
+or puts the camera within 100 mm of the file's. Otherwise the file cannot be told from its
+inverse and the refusal asks for the measured position.
+
+Limits: without a measured position, ``point`` and ``cloud`` (which know no workspace) cannot
+tell a straight-down camera's file from its inverse. An inverse whose camera lies within the
+tolerance of the file's is never told apart: for a camera at distance r from the origin (base or
+flange) the two rotations then differ by up to about 4 asin(tolerance / 2r), 8 degrees at 1.4 m
+with 100 mm (exactly equal positions mean the file is its own inverse).
 
 ``object-in-camera-range`` (with a detection): the object lies 50 to 5000 mm from the camera,
 the working range of 3D cameras used for picking (a point in cm or m read as mm lands closer).
@@ -54,15 +71,21 @@ from __future__ import annotations
 
 import math
 from collections.abc import Collection, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Protocol
 
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import HandEyeCalibration, HandEyeMode, SettingNames
+from handeye_pick.calibration import (
+    EYE_IN_HAND_RANGE,
+    EYE_TO_HAND_RANGE,
+    HandEyeCalibration,
+    HandEyeMode,
+    SettingNames,
+)
 from handeye_pick.errors import HandEyePickError
-from handeye_pick.geometry import Transform, compose
+from handeye_pick.geometry import Transform, compose, invert
 
 MAX_CAMERA_FROM_FLANGE_MM = 500.0
 MAX_CAMERA_BEHIND_FLANGE_MM = 10.0
@@ -71,6 +94,8 @@ MIN_CAMERA_FROM_BASE_MM = 200.0
 WORKSPACE_VIEW_MARGIN_MM = 100.0
 CAMERA_RANGE_MM = (50.0, 5000.0)
 MAX_REACH_MM = 2000.0
+CAMERA_POSITION_TOLERANCE_MM = 100.0  # default; also how far apart a file and its inverse must be
+MAX_CAMERA_POSITION_TOLERANCE_MM = 500.0  # wider, a file and its mirrored inverse may both fit
 
 CHECKS = (
     "camera-near-flange",
@@ -79,6 +104,8 @@ CHECKS = (
     "camera-away-from-base",
     "camera-above-floor",
     "camera-looks-at-workspace",
+    "camera-at-measured-position",
+    "camera-position-measured",
     "object-in-camera-range",
     "object-within-reach",
 )
@@ -91,6 +118,33 @@ class Problem:
     check: str
     message: str
     acknowledged: bool  # the cell acknowledged this check: report it, do not refuse
+
+
+@dataclass(frozen=True)
+class MeasuredCamera:
+    """The camera origin as the integrator measured it (a tape, a drawing), mm: in the robot base
+    frame for eye-to-hand, in the flange frame for eye-in-hand; and how far (mm) the
+    calibration's camera origin may lie from it."""
+
+    position_mm: tuple[float, float, float]
+    tolerance_mm: float = CAMERA_POSITION_TOLERANCE_MM
+
+
+def measured_position_problem(mode: HandEyeMode, position_mm: Sequence[float]) -> str | None:
+    """Why ``position_mm`` (mm) cannot be a camera position measured for ``mode``, or None: it
+    must be 3 finite numbers whose distance from the base (eye-to-hand) or flange (eye-in-hand)
+    is in the range the calibration file's own unit check accepts, which catches metres."""
+    if len(position_mm) != 3 or not all(math.isfinite(v) for v in position_mm):
+        return f"expected 3 finite numbers (mm), got {list(position_mm)}"
+    limits = EYE_IN_HAND_RANGE if mode is HandEyeMode.EYE_IN_HAND else EYE_TO_HAND_RANGE
+    distance_mm = math.hypot(*position_mm)
+    low_mm, high_mm = limits.low_m * 1000.0, limits.high_m * 1000.0
+    if low_mm <= distance_mm <= high_mm:
+        return None
+    return (
+        f"the {limits.what} is {distance_mm:g} mm, expected {low_mm:g} to {high_mm:g} mm "
+        "(this is in mm: metres given?)"
+    )
 
 
 class WorkspaceBox(Protocol):
@@ -109,13 +163,16 @@ def chain_problems(
     T_cam_obj: Transform | None,
     workspace: WorkspaceBox | None,
     acknowledged: Collection[str] = (),
+    *,
+    measured: MeasuredCamera | None = None,
 ) -> list[Problem]:
     """Every check in ``CHECKS`` that fails for this chain, in that order.
 
     ``T_base_flange`` (m): the flange pose at capture time (eye-in-hand; None when unknown or
     eye-to-hand). ``T_cam_obj`` (m): the detection, None for a whole cloud. ``workspace``: the
-    cell's box, None where there is no cell config (``point``, ``cloud``). A problem whose check
-    is in ``acknowledged`` comes back with ``acknowledged=True``.
+    cell's box, None where there is no cell config (``point``, ``cloud``). ``measured``: the
+    camera's measured position, None when not given. A problem whose check is in
+    ``acknowledged`` comes back with ``acknowledged=True``.
     """
     unknown = sorted(set(acknowledged) - set(CHECKS))
     if unknown:
@@ -127,6 +184,10 @@ def chain_problems(
         found.update(_eye_in_hand(calibration, T_cal_mm, optical_axis))
     else:
         found.update(_eye_to_hand(calibration, T_cal_mm, optical_axis, workspace))
+    if measured is not None:
+        found.update(_measured_position(calibration, T_cal_mm, measured))
+    elif calibration.mode is HandEyeMode.EYE_TO_HAND and workspace is not None and not found:
+        found.update(_inverse_alike(calibration, T_cal_mm, workspace))
     if T_cam_obj is not None:
         found.update(_object(calibration, T_base_flange, T_cam_obj))
     return [
@@ -225,6 +286,63 @@ def _eye_to_hand(
     return found
 
 
+def _measured_position(
+    calibration: HandEyeCalibration, t_cal_mm: NDArray[np.float64], measured: MeasuredCamera
+) -> dict[str, str]:
+    names = calibration.settings
+    position_mm = np.array(measured.position_mm, dtype=np.float64)
+    off_mm = float(np.linalg.norm(t_cal_mm - position_mm))
+    if off_mm <= measured.tolerance_mm:
+        return {}
+    frame = "flange" if calibration.mode is HandEyeMode.EYE_IN_HAND else "robot base"
+    found = (
+        f"the calibration puts the camera at {_mm(t_cal_mm)} mm in the {frame} frame, "
+        f"{off_mm:.0f} mm from its measured position {_mm(position_mm)} mm "
+        f"({names.camera_position}, tolerance {measured.tolerance_mm:g} mm)"
+    )
+    t_inverse_mm = invert(calibration.T_cal)[:3, 3] * 1000.0
+    inverse_off_mm = float(np.linalg.norm(t_inverse_mm - position_mm))
+    if inverse_off_mm <= measured.tolerance_mm:
+        explanation = (
+            f"; the inverse file puts it {inverse_off_mm:.0f} mm from there: the calibration "
+            f"looks inverted ({_invert_hint(calibration)})"
+        )
+    else:
+        explanation = (
+            f": the file, its mode ({names.mode}) or the measured position is wrong (the "
+            f"inverse file puts the camera at {_mm(t_inverse_mm)} mm, no nearer)"
+        )
+    return {"camera-at-measured-position": found + explanation}
+
+
+def _inverse_alike(
+    calibration: HandEyeCalibration, t_base_cam_mm: NDArray[np.float64], workspace: WorkspaceBox
+) -> dict[str, str]:
+    """``camera-position-measured``: whether the inverse of an eye-to-hand file that passed the
+    eye-to-hand checks passes them as well, with its camera elsewhere."""
+    inverse = replace(
+        calibration, T_cal=invert(calibration.T_cal), inverted=not calibration.inverted
+    )
+    t_inverse_mm = inverse.T_cal[:3, 3] * 1000.0
+    if _eye_to_hand(inverse, t_inverse_mm, inverse.T_cal[:3, 2], workspace):
+        return {}
+    # Equal camera positions make the file its own inverse (p = -R^T p makes R a half turn,
+    # which is symmetric, so T == inv(T)): the positions' distance is the measure.
+    apart_mm = float(np.linalg.norm(t_base_cam_mm - t_inverse_mm))
+    if apart_mm <= CAMERA_POSITION_TOLERANCE_MM:
+        return {}
+    names = calibration.settings
+    return {
+        "camera-position-measured": (
+            f"the file cannot be told from its inverse: it puts the camera at "
+            f"{_mm(t_base_cam_mm)} mm, its inverse ({_invert_hint(calibration)}) at "
+            f"{_mm(t_inverse_mm)} mm in the robot base frame, {apart_mm:.0f} mm apart, and both "
+            f"look at the workspace; measure where the camera is and set {names.camera_position} "
+            "(robot base frame, mm)"
+        )
+    }
+
+
 def _object(
     calibration: HandEyeCalibration, T_base_flange: Transform | None, T_cam_obj: Transform
 ) -> dict[str, str]:
@@ -257,6 +375,11 @@ def _invert_hint(calibration: HandEyeCalibration) -> str:
     if names.on_command_line:
         return f"drop {names.invert}" if calibration.inverted else f"add {names.invert}"
     return names.assignment(names.invert, "false" if calibration.inverted else "true")
+
+
+def _mm(values: NDArray[np.float64]) -> str:
+    """A position in mm, rounded to the mm: ``[512, -39, 1245]``."""
+    return "[" + ", ".join(f"{float(v):.0f}" for v in values) + "]"
 
 
 def _ray_meets_box(

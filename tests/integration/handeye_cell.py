@@ -1,5 +1,6 @@
 """A simulated cell for the calibration commands: the truth the simulated camera uses, a cell
-config whose hand-eye file holds a rough mount (as before a calibration), the capture command.
+config whose hand-eye file holds a rough mount (as before a calibration) and the camera's
+position taped to the centimetre, the capture command.
 
 Eye-in-hand: a camera on the flange (``CAMERA_IN_HAND``, T_flange_cam), a board on the table in
 front of the UR5e (``BOARD_IN_CELL``, T_base_board, face up). Eye-to-hand: a camera 1 m above
@@ -44,11 +45,13 @@ def write_cell(tmp_path: Path, host: str, mode: str, *, max_tilt_deg: float = 50
     plus the mount's."""
     rough = np.array(TRUE_CAMERA[mode]) + ROUGH_ERROR
     write_zivid_transform(tmp_path / "hand_eye.yaml", ur_pose_to_matrix(rough), "mm")
+    taped_mm = [round(v * 1000.0, -1) for v in TRUE_CAMERA[mode][:3]]  # to the centimetre
     path = tmp_path / "cell.yaml"
     path.write_text(
         f"robot:\n  host: {host}\n  tcp_offset: {list(TCP_OFFSET)}\n"
         f"  watchdog_s: {TEST_WATCHDOG_S}\n"
         f"hand_eye:\n  mode: {mode}\n  file: hand_eye.yaml\n  units: mm\n"
+        f"  camera_position_mm: {taped_mm}\n"
         "grasp:\n  approach_mm: 100\n  retreat_mm: 100\n"
         "motion:\n  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n"
         "workspace:\n  min_mm: [-900, -800, 20]\n  max_mm: [800, 800, 900]\n"

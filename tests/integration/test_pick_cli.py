@@ -32,8 +32,12 @@ DEMO = ROOT / "config" / "demo"
 TCP_OFFSET = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)
 MOTION_KINDS = {"moveL", "moveJ", "moveL_FK", "moveJ_IK"}
 CLI = [sys.executable, "-c", "import sys; from handeye_pick.cli import main; sys.exit(main())"]
-# A camera 1.2 m above the base plane looking straight down (eye-to-hand T_base_cam, mm).
+# A camera 1.2 m above the base plane looking straight down (eye-to-hand T_base_cam, mm), and
+# the same file written the other way round (T_cam_base): read without invert, another camera
+# looking straight down from (100, 450, 1200) mm, which every geometric check accepts.
 EYE_TO_HAND = "[[0, 1, 0, -450], [1, 0, 0, -100], [0, 0, -1, 1200], [0, 0, 0, 1]]\n"
+EYE_TO_HAND_INVERSE = "[[0, 1, 0, 100], [1, 0, 0, 450], [0, 0, -1, 1200], [0, 0, 0, 1]]\n"
+TAPED_CAMERA = "  camera_position_mm: [-430, -120, 1180]\n"  # 35 mm off the optical origin
 
 
 def write_config(tmp_path: Path, host: str, **overrides: str) -> Path:
@@ -118,10 +122,17 @@ def test_eye_in_hand_pick_with_tcp_offset(sim_controller: SimFactory, tmp_path: 
     assert outcome["errors"]["grasp"]["position_mm"] < 0.01
 
 
-def test_eye_to_hand_position_only_pick(sim_controller: SimFactory, tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "told_apart", [TAPED_CAMERA, "  acknowledge: [camera-position-measured]\n"]
+)
+def test_eye_to_hand_position_only_pick(
+    sim_controller: SimFactory, tmp_path: Path, told_apart: str
+) -> None:
+    # A straight-down camera's file is told from its inverse by the taped camera position, or
+    # the cell acknowledges that it cannot be, and the audit says so.
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     (tmp_path / "eth.yaml").write_text(EYE_TO_HAND)
-    hand_eye = f"  mode: eye-to-hand\n  file: {tmp_path / 'eth.yaml'}\n  units: mm\n"
+    hand_eye = f"  mode: eye-to-hand\n  file: {tmp_path / 'eth.yaml'}\n  units: mm\n{told_apart}"
     tcp_before = ur_pose_to_matrix(list(ctl.snapshot().tcp_pose))
     status, report = run_json(
         write_config(tmp_path, ctl.host, hand_eye=hand_eye), "--xyz", "50", "-20", "1100"
@@ -133,6 +144,16 @@ def test_eye_to_hand_position_only_pick(sim_controller: SimFactory, tmp_path: Pa
     np.testing.assert_allclose(grasp[:3, 2], [0.0, 0.0, -1.0], atol=1e-12)  # tool straight down
     np.testing.assert_allclose(grasp[:3, 0], tcp_before[:3, 0], atol=1e-9)  # current yaw kept
     assert_pose(ctl.snapshot().tcp_pose, report["targets"]["retreat"])
+    plan = audit_records(tmp_path)[0]
+    plausible = [c for c in plan["checks"] if c["name"].startswith("plausible")]
+    if told_apart == TAPED_CAMERA:
+        assert plausible == []
+    else:
+        (acknowledged,) = plausible
+        assert acknowledged["name"] == "plausible camera-position-measured"
+        assert acknowledged["passed"] is True
+        assert "cannot be told from its inverse" in acknowledged["detail"]
+        assert acknowledged["detail"].endswith("(acknowledged in hand_eye.acknowledge)")
 
 
 def test_pixel_in_a_cloud_and_dry_run_moves_nothing(
@@ -487,13 +508,25 @@ def test_a_controller_without_a_dashboard_is_refused_with_the_reason(
             "invert",
         ),
         (f"  mode: eye-to-hand\n  file: {DEMO / 'hand_eye.yaml'}\n  units: mm\n", "eye-in-hand"),
+        (
+            f"  mode: eye-to-hand\n  file: eth_inverse.yaml\n  units: mm\n{TAPED_CAMERA}",
+            "the inverse file puts it 35 mm from there: the calibration looks inverted "
+            "(hand_eye.invert: true)",
+        ),
+        (
+            "  mode: eye-to-hand\n  file: eth_inverse.yaml\n  units: mm\n",
+            "cannot be told from its inverse: it puts the camera at [100, 450, 1200] mm",
+        ),
     ],
 )
 def test_an_inverted_or_swapped_calibration_is_refused_before_any_motion(
     sim_controller: SimFactory, tmp_path: Path, hand_eye: str, mistake: str
 ) -> None:
-    # Issue 11: the inverted demo file ran to an object 123 mm off and exited 0.
+    # Issue 11: the inverted demo file ran to an object 123 mm off and exited 0; a straight-down
+    # fixed camera's inverted file ran 778 mm off.
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    (tmp_path / "eth.yaml").write_text(EYE_TO_HAND)
+    (tmp_path / "eth_inverse.yaml").write_text(EYE_TO_HAND_INVERSE)
     status, report = run_json(
         write_config(tmp_path, ctl.host, hand_eye=hand_eye),
         "--detection",

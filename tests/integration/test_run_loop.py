@@ -447,6 +447,7 @@ def test_eye_to_hand_capture_moves_out_of_view_and_latches_no_pose(
         "[[0, 1, 0, -450], [1, 0, 0, -100], [0, 0, -1, 1200], [0, 0, 0, 1]]\n"
     )
     hand_eye = f"  mode: eye-to-hand\n  file: {tmp_path / 'eth.yaml'}\n  units: mm\n"
+    hand_eye += "  camera_position_mm: [-440, -110, 1190]\n"  # taped: file, not its inverse
     config = loop_config(tmp_path, ctl.host, hand_eye=hand_eye, capture="  pose: aside\n")
     with loop(config) as run:
         captured = run.ask({"id": "c", "op": "capture"})

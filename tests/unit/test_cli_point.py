@@ -250,6 +250,62 @@ def test_an_acknowledged_check_passes_with_a_warning(capsys: pytest.CaptureFixtu
     assert_bad_input(capsys, "--acknowledge camera-in-front-of-flange)", *argv)
 
 
+# A camera 1.2 m up looking straight down, written the other way round (T_cam_base, mm): read
+# without --invert it is another straight-down camera, at (100, 450, 1200) mm.
+STRAIGHT_DOWN_INVERSE = "[[0, 1, 0, 100], [1, 0, 0, 450], [0, 0, -1, 1200], [0, 0, 0, 1]]\n"
+TAPED = ["--camera-position-mm", "-430", "-120", "1180"]  # the true camera is at (-450, -100, 1200)
+
+
+def test_a_measured_camera_position_catches_a_straight_down_file_read_the_wrong_way(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    path = tmp_path / "cal.yaml"
+    path.write_text(STRAIGHT_DOWN_INVERSE)
+    argv = ["point", "--mode", "eye-to-hand", "--calibration", str(path), "--xyz", "50", "-20"]
+    argv += ["1100", *TAPED]
+    assert_bad_input(
+        capsys, "implausible camera chain: camera-at-measured-position: the calibration puts the "
+        "camera at [100, 450, 1200] mm in the robot base frame, 779 mm from its measured "
+        "position [-430, -120, 1180] mm (--camera-position-mm, tolerance 100 mm); the inverse "
+        "file puts it 35 mm from there: the calibration looks inverted (add --invert)",
+        *argv,
+    )  # fmt: skip
+    report = run_json(capsys, *argv, "--invert")
+    np.testing.assert_allclose(report["point_base_mm"], [-470.0, -50.0, 100.0], atol=1e-9)
+    status, out, err = run(capsys, *argv, "--acknowledge", "camera-at-measured-position")
+    assert status == 0
+    assert out.startswith("point_camera_mm:")
+    assert "acknowledged camera-at-measured-position: the calibration puts the camera at" in err
+    # Tighter than the tape's 35 mm error, the right file is refused too, blaming all three.
+    assert_bad_input(
+        capsys, "the file, its mode (--mode) or the measured position is wrong",
+        *argv, "--invert", "--camera-position-tolerance-mm", "30",
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("flags", "message"),
+    [
+        (["--camera-position-mm", "-0.43", "-0.12", "1.18"], "--camera-position-mm: the camera "
+         "distance from the robot base is 1.26163 mm, expected 50 to 10000 mm"),
+        (["--camera-position-mm", "-430", "nan", "1180"], "expected 3 finite numbers"),
+        ([*TAPED, "--camera-position-tolerance-mm", "0"], "--camera-position-tolerance-mm must "
+         "be greater than 0 and at most 500 mm, got 0"),
+        ([*TAPED, "--camera-position-tolerance-mm", "600"], "at most 500 mm, got 600"),
+        (["--camera-position-tolerance-mm", "50"], "--camera-position-tolerance-mm applies to "
+         "--camera-position-mm, which was not given"),
+    ],
+)  # fmt: skip
+def test_bad_measured_camera_positions_are_refused(
+    capsys: pytest.CaptureFixture[str], flags: list[str], message: str
+) -> None:
+    assert_bad_input(
+        capsys, message,
+        "point", "--mode", "eye-to-hand", "--calibration", EYE_TO_HAND, "--xyz", "1", "2", "300",
+        *flags,
+    )  # fmt: skip
+
+
 def test_a_camera_point_in_metres_is_refused_as_pick_refuses_it(
     capsys: pytest.CaptureFixture[str],
 ) -> None:

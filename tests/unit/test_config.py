@@ -15,6 +15,7 @@ import yaml
 from handeye_pick.calibration import HandEyeMode
 from handeye_pick.config import CellConfig, GripperConfig, load_config, read_yaml_mapping
 from handeye_pick.errors import ConfigError
+from handeye_pick.plausibility import MeasuredCamera
 from handeye_pick.robot.port import OutputBank
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -160,6 +161,44 @@ def test_acknowledged_plausibility_checks_are_named_each_once(cell: Path) -> Non
     ]:
         with pytest.raises(ConfigError, match=message):
             _load_with(cell, hand_eye__acknowledge=value)
+
+
+def test_measured_camera_position_and_its_tolerance(cell: Path) -> None:
+    assert _load_with(cell).hand_eye.camera_position is None
+    measured = _load_with(cell, hand_eye__camera_position_mm=[-10, 60.5, 100]).hand_eye
+    assert measured.camera_position == MeasuredCamera((-10.0, 60.5, 100.0), 100.0)
+    fixed = _load_with(
+        cell,
+        hand_eye__mode="eye-to-hand",
+        hand_eye__camera_position_mm=[500, -40, 1250],
+        hand_eye__camera_position_tolerance_mm=500,
+    ).hand_eye
+    assert fixed.camera_position == MeasuredCamera((500.0, -40.0, 1250.0), 500.0)
+
+
+@pytest.mark.parametrize(
+    ("changes", "message"),
+    [
+        ({"camera_position_mm": [0, 60]}, r"camera_position_mm: expected a list of 3 numbers"),
+        ({"camera_position_mm": [0, math.nan, 100]}, r"camera_position_mm\[1\]: expected a finite"),
+        ({"camera_position_mm": [0, 0.06, 0.1]}, r"camera_position_mm: the camera distance from "
+         r"the flange is 0\.116619 mm, expected 1 to 2000 mm \(this is in mm: metres given\?\)"),
+        ({"camera_position_mm": [0, 0, 2500]}, r"camera_position_mm: .* 2500 mm, expected 1 to"),
+        ({"mode": "eye-to-hand", "camera_position_mm": [0.5, 0, 1.2]},
+         r"camera_position_mm: the camera distance from the robot base is 1\.3 mm, expected 50"),
+        ({"camera_position_mm": [0, 60, 100], "camera_position_tolerance_mm": 0},
+         r"camera_position_tolerance_mm: must be greater than 0 mm, got 0"),
+        ({"camera_position_mm": [0, 60, 100], "camera_position_tolerance_mm": 501},
+         r"camera_position_tolerance_mm: must be at most 500 mm, got 501"),
+        ({"camera_position_tolerance_mm": 50},
+         r"camera_position_tolerance_mm: applies to hand_eye\.camera_position_mm, which is not"),
+    ],
+)  # fmt: skip
+def test_bad_measured_camera_position_is_refused_naming_the_key(
+    cell: Path, changes: dict[str, object], message: str
+) -> None:
+    with pytest.raises(ConfigError, match=r"hand_eye\." + message):
+        _load_with(cell, **{f"hand_eye__{key}": value for key, value in changes.items()})
 
 
 @pytest.mark.parametrize(

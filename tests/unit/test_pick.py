@@ -155,6 +155,7 @@ hand_eye:
   mode: {mode}
   file: {DEMO_HAND_EYE if mode == "eye-in-hand" else tmp_path / "eth.yaml"}
   units: mm
+  {"camera_position_mm: [-400, 0, 1000]" if mode == "eye-to-hand" else ""}
 grasp:
   approach_mm: 100
   retreat_mm: 80

@@ -27,10 +27,18 @@ from handeye_pick.geometry import (
     compose,
     invert,
     make_transform,
+    rotation_angle_between,
     rotation_from_rotvec,
     ur_pose_to_matrix,
 )
-from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
+from handeye_pick.plausibility import (
+    CAMERA_POSITION_TOLERANCE_MM,
+    CHECKS,
+    MeasuredCamera,
+    chain_problems,
+    measured_position_problem,
+    refuse_implausible,
+)
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO = load_config(ROOT / "config" / "demo.yaml")
@@ -59,7 +67,12 @@ def test_the_shipped_cells_pass() -> None:
     demo = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
     assert chain_problems(demo, DEMO_FLANGE, DEMO_DETECTION.T_cam_obj, DEMO.workspace) == []
     example = _example_calibration(HandEyeMode.EYE_TO_HAND, invert=False)
-    assert chain_problems(example, None, EXAMPLE_POINT.T_cam_obj, EXAMPLE.workspace) == []
+    measured = EXAMPLE.hand_eye.camera_position
+    assert measured is not None
+    assert (
+        chain_problems(example, None, EXAMPLE_POINT.T_cam_obj, EXAMPLE.workspace, measured=measured)
+        == []
+    )
     for name in ("EyeInHandTransform.yaml", "EyeInHandTransform_opencv_legacy.yaml"):
         eye_in_hand = load_hand_eye(ROOT / "config" / "calibration" / name, "eye-in-hand")  # type: ignore[arg-type]
         assert chain_problems(eye_in_hand, EXAMPLE_FLANGE, None, None) == []
@@ -112,8 +125,18 @@ def _look_at(eye_mm: np.ndarray, target_mm: np.ndarray, roll_rad: float) -> Tran
     return make_transform(R, eye_mm / 1000.0)
 
 
-def _calibration(mode: HandEyeMode, T_cal: Transform, inverted: bool = False) -> HandEyeCalibration:
-    return HandEyeCalibration(mode, T_cal, Path("cal.yaml"), "", "mm", inverted)
+def _calibration(
+    mode: HandEyeMode,
+    T_cal: Transform,
+    inverted: bool = False,
+    settings: SettingNames = COMMAND_LINE,
+) -> HandEyeCalibration:
+    return HandEyeCalibration(mode, T_cal, Path("cal.yaml"), "", "mm", inverted, settings)
+
+
+def _measured(position_mm: np.ndarray, tolerance_mm: float = 100.0) -> MeasuredCamera:
+    x, y, z = (float(v) for v in position_mm)
+    return MeasuredCamera((x, y, z), tolerance_mm)
 
 
 @settings(deadline=None)  # no timing assertion on a shared machine
@@ -168,7 +191,8 @@ def test_any_fixed_camera_looking_at_the_workspace_passes_and_used_on_the_arm_is
 ) -> None:
     eye = np.array([reach_mm * math.cos(azimuth), reach_mm * math.sin(azimuth), height_mm])
     T_base_cam = _look_at(eye, np.array(target_mm), roll)
-    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, WORKSPACE) == []
+    fixed = _calibration(HandEyeMode.EYE_TO_HAND, T_base_cam)
+    assert chain_problems(fixed, None, None, WORKSPACE, measured=_measured(eye)) == []
     on_arm = _calibration(HandEyeMode.EYE_IN_HAND, T_base_cam)
     assert _checks(on_arm, None, None, None)[:2] == [
         "camera-near-flange",
@@ -193,7 +217,177 @@ def test_a_fixed_camera_below_the_floor_is_refused() -> None:
     assert "looks inverted (add --invert)" in problems[0].message
     # With a workspace the floor is the box's: a camera on a low table is still above it.
     table = WorkspaceConfig(min_mm=(-800, -800, -400), max_mm=(800, 800, 700), max_tilt_deg=30)
-    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, table) == []
+    low = _calibration(HandEyeMode.EYE_TO_HAND, T_base_cam)
+    measured = _measured(np.array([600.0, 0.0, -300.0]))
+    assert chain_problems(low, None, None, table, measured=measured) == []
+
+
+# The issue's cell: a camera 1.2 m above the base plane looking straight down (T_base_cam). Its
+# inverse is a camera at (100, 450, 1200) mm looking straight down, mirrored about the vertical
+# plane through the base origin at 45 degrees: both look at the workspace, and every pick with
+# the wrong one lands 778 mm off.
+STRAIGHT_DOWN = make_transform([[0, 1, 0], [1, 0, 0], [0, 0, -1]], [-0.45, -0.1, 1.2])
+STRAIGHT_DOWN_TAPED = np.array([-430.0, -120.0, 1180.0])  # 35 mm off: the body, not the optics
+
+
+def _straight_down(invert_file: bool) -> HandEyeCalibration:
+    """The straight-down camera's calibration from a cell config: ``invert_file`` (the file holds
+    the inverse) and the inverse set wrongly, or both right."""
+    T_file = invert(STRAIGHT_DOWN) if invert_file else STRAIGHT_DOWN
+    return _calibration(HandEyeMode.EYE_TO_HAND, T_file, inverted=False, settings=CELL_CONFIG)
+
+
+@pytest.mark.parametrize("invert_file", [False, True])
+def test_a_straight_down_camera_without_a_measured_position_is_refused(invert_file: bool) -> None:
+    (problem,) = chain_problems(_straight_down(invert_file), None, None, WORKSPACE)
+    assert problem.check == "camera-position-measured"
+    assert "cannot be told from its inverse" in problem.message
+    mirrored = "[100, 450, 1200]" if not invert_file else "[-450, -100, 1200]"
+    assert f"its inverse (hand_eye.invert: true) at {mirrored} mm" in problem.message
+    assert "778 mm apart" in problem.message
+    assert problem.message.endswith("set hand_eye.camera_position_mm (robot base frame, mm)")
+
+
+def test_a_measured_position_tells_the_straight_down_file_from_its_inverse() -> None:
+    taped = _measured(STRAIGHT_DOWN_TAPED)
+    assert chain_problems(_straight_down(False), None, None, WORKSPACE, measured=taped) == []
+    (problem,) = chain_problems(_straight_down(True), None, None, WORKSPACE, measured=taped)
+    assert problem.check == "camera-at-measured-position"
+    assert problem.message.startswith(
+        "the calibration puts the camera at [100, 450, 1200] mm in the robot base frame, 779 mm "
+        "from its measured position [-430, -120, 1180] mm (hand_eye.camera_position_mm, "
+        "tolerance 100 mm); the inverse file puts it 35 mm from there"
+    )
+    assert problem.message.endswith("looks inverted (hand_eye.invert: true)")
+    # Without a workspace (point, cloud) only the measured position catches it.
+    assert _checks(_straight_down(True), None, None, None) == []
+    problems = chain_problems(_straight_down(True), None, None, None, measured=taped)
+    assert [p.check for p in problems] == ["camera-at-measured-position"]
+
+
+def test_a_measured_position_that_fits_neither_way_blames_file_mode_or_measurement() -> None:
+    elsewhere = _measured(np.array([450.0, -100.0, 1200.0]), tolerance_mm=50.0)
+    (problem,) = chain_problems(_straight_down(False), None, None, WORKSPACE, measured=elsewhere)
+    assert problem.check == "camera-at-measured-position"
+    assert "900 mm from its measured position [450, -100, 1200] mm" in problem.message
+    assert "tolerance 50 mm" in problem.message
+    assert "the file, its mode (hand_eye.mode) or the measured position is wrong" in problem.message
+    # A wrist camera's file used as a fixed one fails here as well as on its distance.
+    demo_as_fixed = _demo_calibration(HandEyeMode.EYE_TO_HAND, invert=False)
+    problems = chain_problems(
+        demo_as_fixed, None, None, WORKSPACE, measured=_measured(STRAIGHT_DOWN_TAPED)
+    )
+    assert [p.check for p in problems] == ["camera-away-from-base", "camera-at-measured-position"]
+
+
+def test_a_wrist_camera_is_checked_against_its_measured_position_in_the_flange_frame() -> None:
+    taped = _measured(np.array([0.0, -70.0, 60.0]), tolerance_mm=20.0)
+    right = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=False)
+    assert chain_problems(right, DEMO_FLANGE, None, None, measured=taped) == []
+    wrong = _demo_calibration(HandEyeMode.EYE_IN_HAND, invert=True)
+    problems = chain_problems(wrong, DEMO_FLANGE, None, None, measured=taped)
+    assert [p.check for p in problems] == [
+        "camera-in-front-of-flange",
+        "camera-at-measured-position",
+    ]
+    assert "in the flange frame" in problems[1].message
+    assert problems[1].message.endswith("looks inverted (hand_eye.invert: false)")
+
+
+def test_a_straight_down_camera_that_is_its_own_inverse_is_not_refused() -> None:
+    # Half a turn about x, camera over the x = 0 plane: inv(T) == T, nothing to tell apart.
+    T_base_cam = make_transform([[1, 0, 0], [0, -1, 0], [0, 0, -1]], [0.0, 0.6, 1.2])
+    np.testing.assert_allclose(invert(T_base_cam), T_base_cam, atol=1e-15)
+    assert _checks(_calibration(HandEyeMode.EYE_TO_HAND, T_base_cam), None, None, WORKSPACE) == []
+
+
+@pytest.mark.parametrize(
+    ("mode", "position_mm", "problem"),
+    [
+        (HandEyeMode.EYE_TO_HAND, (500.0, -40.0, 1250.0), None),
+        (HandEyeMode.EYE_IN_HAND, (0.0, -75.0, 55.0), None),
+        (HandEyeMode.EYE_TO_HAND, (0.5, -0.04, 1.25), "base is 1.34689 mm, expected 50 to"),
+        (HandEyeMode.EYE_IN_HAND, (0.0, 0.0, 2500.0), "from the flange is 2500 mm"),
+        (HandEyeMode.EYE_IN_HAND, (0.0, math.inf, 55.0), "expected 3 finite numbers"),
+        (HandEyeMode.EYE_IN_HAND, (0.0, 55.0), "expected 3 finite numbers"),
+    ],
+)
+def test_measured_positions_are_checked_for_range_and_unit(
+    mode: HandEyeMode, position_mm: tuple[float, ...], problem: str | None
+) -> None:
+    found = measured_position_problem(mode, position_mm)
+    if problem is None:
+        assert found is None
+    else:
+        assert found is not None
+        assert problem in found
+
+
+@settings(deadline=None)
+@given(
+    eye_xy_mm=st.tuples(st.floats(-700, 700), st.floats(-700, 700)),
+    height_mm=st.floats(800.0, 2000.0),
+    look_xy_mm=st.tuples(st.floats(-100, 100), st.floats(-100, 100)),
+    roll=st.floats(-math.pi, math.pi),
+    tape_direction=st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)),
+    tape_error=st.floats(0.0, 0.99),  # within the tolerance, clear of rounding at its edge
+)
+def test_an_inverted_straight_down_camera_is_refused_or_indistinguishable(
+    eye_xy_mm: tuple[float, float],
+    height_mm: float,
+    look_xy_mm: tuple[float, float],
+    roll: float,
+    tape_direction: tuple[float, float, float],
+    tape_error: float,
+) -> None:
+    # A fixed camera 0.8 to 2 m up, looking at the table at most 100 mm beside the point below
+    # it (7 degrees or less from straight down), any roll.
+    eye = np.array([*eye_xy_mm, height_mm])
+    T_base_cam = _look_at(eye, np.array([*np.add(eye_xy_mm, look_xy_mm), 0.0]), roll)
+    T_inverse = invert(T_base_cam)
+    right = _calibration(HandEyeMode.EYE_TO_HAND, T_base_cam)
+    wrong = _calibration(HandEyeMode.EYE_TO_HAND, T_inverse, inverted=True)
+    right_checks = _checks(right, None, None, WORKSPACE)
+    wrong_checks = _checks(wrong, None, None, WORKSPACE)
+    assert right_checks in ([], ["camera-position-measured"])
+    # Both or neither: each is the other's inverse.
+    assert ("camera-position-measured" in wrong_checks) == bool(right_checks)
+    apart_mm = float(np.linalg.norm(T_inverse[:3, 3] - T_base_cam[:3, 3])) * 1000.0
+    if apart_mm > CAMERA_POSITION_TOLERANCE_MM:
+        assert wrong_checks != []
+    else:  # the documented limit: never told apart, and the rotations differ this little
+        bound = 4.0 * math.asin(apart_mm / (2.0 * float(np.linalg.norm(eye))))
+        assert rotation_angle_between(T_base_cam[:3, :3], T_inverse[:3, :3]) <= bound + 1e-9
+    # A tape measure within the tolerance: the right file passes, the inverse is refused as
+    # inverted unless its camera lies within the tolerance of the tape as well.
+    direction = np.array(tape_direction)
+    length = float(np.linalg.norm(direction))
+    offset = direction / length * tape_error * CAMERA_POSITION_TOLERANCE_MM if length > 0 else 0
+    taped = _measured(eye + offset)
+    assert chain_problems(right, None, None, WORKSPACE, measured=taped) == []
+    problems = chain_problems(wrong, None, None, WORKSPACE, measured=taped)
+    at_tape = [p for p in problems if p.check == "camera-at-measured-position"]
+    if at_tape:
+        assert at_tape[0].message.endswith("looks inverted (drop --invert)")
+    else:
+        wrong_mm = T_inverse[:3, 3] * 1000.0
+        assert np.linalg.norm(wrong_mm - eye - offset) <= CAMERA_POSITION_TOLERANCE_MM
+    assert "camera-position-measured" not in [p.check for p in problems]
+
+
+def test_each_new_check_can_be_acknowledged_and_is_still_reported() -> None:
+    for measured, check in [
+        (None, "camera-position-measured"),
+        (_measured(STRAIGHT_DOWN_TAPED), "camera-at-measured-position"),
+    ]:
+        wrong = _straight_down(True)
+        refused = chain_problems(wrong, None, None, WORKSPACE, measured=measured)
+        with pytest.raises(SafetyRefusal, match=f"{check}: .* acknowledge the check: "
+                           f"hand_eye.acknowledge: \\[{check}\\]"):  # fmt: skip
+            refuse_implausible(refused, CELL_CONFIG, SafetyRefusal)
+        problems = chain_problems(wrong, None, None, WORKSPACE, [check], measured=measured)
+        assert [(p.check, p.acknowledged) for p in problems] == [(check, True)]
+        refuse_implausible(problems, CELL_CONFIG, SafetyRefusal)  # reported, not refused
 
 
 @pytest.mark.parametrize(

@@ -25,7 +25,15 @@ from handeye_pick.calibration import (
 )
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform
-from handeye_pick.plausibility import CHECKS, chain_problems, refuse_implausible
+from handeye_pick.plausibility import (
+    CAMERA_POSITION_TOLERANCE_MM,
+    CHECKS,
+    MAX_CAMERA_POSITION_TOLERANCE_MM,
+    MeasuredCamera,
+    chain_problems,
+    measured_position_problem,
+    refuse_implausible,
+)
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +50,9 @@ def accept_negative_exponents(parser: argparse.ArgumentParser) -> None:
 
 
 def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True) -> None:
-    """Add ``--mode``, ``--calibration``, ``--calibration-units`` and ``--invert``.
+    """Add ``--mode``, ``--calibration``, ``--calibration-units``, ``--invert`` and the
+    plausibility flags ``--acknowledge``, ``--camera-position-mm`` and
+    ``--camera-position-tolerance-mm``.
 
     With ``with_mode=False`` the command supplies the mode itself (``hand_eye_from_args(args,
     mode)``), e.g. from the cell configuration.
@@ -84,6 +94,24 @@ def add_hand_eye_args(parser: argparse.ArgumentParser, *, with_mode: bool = True
         metavar="CHECK",
         help="accept one named plausibility check of the camera chain that this mount fails on "
         "purpose (repeat for several); the refusal names the check",
+    )
+    accept_negative_exponents(parser)
+    group.add_argument(
+        "--camera-position-mm",
+        nargs=3,
+        type=float,
+        metavar=("X", "Y", "Z"),
+        help="the camera's rough measured position (a tape measure will do), mm: in the robot "
+        "base frame for eye-to-hand, in the flange frame for eye-in-hand. A calibration that "
+        "puts the camera farther away is refused, and named inverted when its inverse fits",
+    )
+    group.add_argument(
+        "--camera-position-tolerance-mm",
+        type=float,
+        metavar="MM",
+        help="how far the calibration's camera origin may lie from --camera-position-mm, mm "
+        f"(default {CAMERA_POSITION_TOLERANCE_MM:g}, at most "
+        f"{MAX_CAMERA_POSITION_TOLERANCE_MM:g})",
     )
 
 
@@ -217,13 +245,44 @@ def camera_chain_from_args(args: argparse.Namespace) -> CameraChain:
     return CameraChain(calibration, T_base_flange, calibration.T_base_cam(T_base_flange))
 
 
+def measured_camera_from_args(
+    args: argparse.Namespace, mode: HandEyeMode
+) -> MeasuredCamera | None:
+    """``--camera-position-mm`` with its tolerance, checked; None when no position was given."""
+    tolerance_mm = args.camera_position_tolerance_mm
+    if args.camera_position_mm is None:
+        if tolerance_mm is not None:
+            raise InputError(
+                "--camera-position-tolerance-mm applies to --camera-position-mm, which was not "
+                "given"
+            )
+        return None
+    x, y, z = args.camera_position_mm
+    problem = measured_position_problem(mode, (x, y, z))
+    if problem is not None:
+        raise InputError(f"--camera-position-mm: {problem}")
+    if tolerance_mm is None:
+        return MeasuredCamera((x, y, z))
+    if not 0.0 < tolerance_mm <= MAX_CAMERA_POSITION_TOLERANCE_MM:
+        raise InputError(
+            "--camera-position-tolerance-mm must be greater than 0 and at most "
+            f"{MAX_CAMERA_POSITION_TOLERANCE_MM:g} mm, got {tolerance_mm:g}"
+        )
+    return MeasuredCamera((x, y, z), tolerance_mm)
+
+
 def refuse_implausible_chain(
     args: argparse.Namespace, chain: CameraChain, T_cam_obj: Transform | None
 ) -> None:
     """Refuse (``InputError``) a chain that fails a plausibility check not given to
     ``--acknowledge``; an acknowledged failure is logged as a warning."""
     problems = chain_problems(
-        chain.calibration, chain.T_base_flange, T_cam_obj, None, args.acknowledge
+        chain.calibration,
+        chain.T_base_flange,
+        T_cam_obj,
+        None,
+        args.acknowledge,
+        measured=measured_camera_from_args(args, chain.calibration.mode),
     )
     for problem in problems:
         if problem.acknowledged:
