@@ -235,6 +235,7 @@ def test_connection_drop_closes_connections_while_motion_goes_on(
         assert r.isConnected()
         # The move ends where it was headed, as the receive stream shows.
         wait_for(lambda: abs(r.getActualTCPPose()[2] - (start[2] - 0.3)) < 1e-9, timeout_s=15.0)
-        assert not ctl.snapshot().moving
+        # The stream can show the final pose a cycle before the motion is marked finished.
+        wait_for(lambda: not ctl.snapshot().moving, timeout_s=5.0)
     finally:
         r.disconnect()
