@@ -134,7 +134,8 @@ def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple
 
 
 def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
-          moves: list[list[float]]) -> list[float]:
+          moves: list[list[float]]) -> tuple[list[float], list[float]]:
+    """Overheads, and the seconds of each synchronous moveL."""
     import rtde_control
     import rtde_receive
 
@@ -142,6 +143,7 @@ def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
     control = rtde_control.RTDEControlInterface(HOST)
     motion = config.motion
     overheads = []
+    move_s = []
     count = len(ctl.motions)
     try:
         for _ in range(cycles):
@@ -152,8 +154,10 @@ def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
                 control.isPoseWithinSafetyLimits(pose)
                 control.getInverseKinematicsHasSolution(pose)
             for pose in moves:
+                move_start = time.perf_counter()
                 if not control.moveL(pose, motion.speed_mps, motion.accel_mps2):
                     raise RuntimeError(f"bare moveL to {pose} refused")
+                move_s.append(time.perf_counter() - move_start)
             wall_s = time.perf_counter() - start
             moving_s, count = _moving_s(ctl, count)
             overheads.append(wall_s - moving_s)
@@ -161,7 +165,7 @@ def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
         control.stopScript()
         control.disconnect()
         receive.disconnect()
-    return overheads
+    return overheads, move_s
 
 
 def _cli(config_path: Path, config: CellConfig, ctl: SimulatedController, cycles: int,
@@ -205,7 +209,7 @@ def main() -> None:
         config = load_config(config_path)
         session, seconds, moves = _session(config, ctl, args.cycles)
         cli = _cli(config_path, config, ctl, args.cycles, folder)
-        bare = _bare(config, ctl, args.cycles, moves)
+        bare, bare_move_s = _bare(config, ctl, args.cycles, moves)
 
     print(f"software overhead per capture/pick/place cycle ({args.cycles} cycles each, "
           f"simulated controller at {HOST}, 500 Hz, instant motion)")
@@ -220,6 +224,8 @@ def main() -> None:
     own = statistics.median(session) - statistics.median(bare)
     print(f"  session - bare ur_rtde: {own * 1000.0:+.1f} ms per cycle (median): what the "
           f"session's checks, watch, child process and audit cost beyond the controller calls")
+    print(f"  bare synchronous moveL: median {statistics.median(bare_move_s) * 1000.0:.2f} ms per "
+          "move (instant motion: the command's round trips and ur_rtde's wait for the end)")
     print("where a session cycle's time goes (per call, all cycles):")
     per_cycle: Callable[[list[float]], float] = lambda v: sum(v) * 1000.0 / args.cycles  # noqa: E731
     for name, values in sorted(seconds.items(), key=lambda item: -sum(item[1])):
