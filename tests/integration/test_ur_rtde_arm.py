@@ -7,6 +7,8 @@ itself and check it survives.
 
 from __future__ import annotations
 
+import os
+import signal
 import subprocess
 import sys
 import time
@@ -205,6 +207,47 @@ def test_ctrl_c_during_a_move_sends_stopl_and_propagates(sim_controller: SimFact
     assert stop["kind"] == "stopL"
     assert stop["accel"] == 10.0
     assert not ctl.snapshot().moving
+
+
+class _CtrlCAt:
+    """The arm's pipe end, with one Ctrl-C (SIGINT to this process) arriving just after the
+    next ``send`` or ``recv`` has moved its whole message: the hold delivers it as the message's
+    hold ends, the worst moment for the bookkeeping of which answer belongs to which call."""
+
+    def __init__(self, connection: Any, method: str) -> None:
+        self._connection = connection
+        self._method = method
+
+    def __getattr__(self, name: str) -> Any:
+        call = getattr(self._connection, name)
+        if name != self._method:
+            return call
+
+        def then_ctrl_c(*args: Any) -> Any:
+            result = call(*args)
+            self._method = ""  # once
+            os.kill(os.getpid(), signal.SIGINT)
+            return result
+
+        return then_ctrl_c
+
+
+@pytest.mark.parametrize("method", ["send", "recv"])
+def test_ctrl_c_right_after_a_message_keeps_answers_with_their_calls(
+    sim_controller: SimFactory, method: str
+) -> None:
+    # Seen as a SIGTERM whose stopL never left: the answer of the interrupted call had been read,
+    # the next call waited for it again, 5 s, while the idle ur_rtde process kept the watchdog fed.
+    tcp_offset = (0.0, 0.0, 0.12, 0.0, 0.0, 0.3)
+    ctl = sim_controller(tcp_offset=tcp_offset, instant=True)
+    with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, call_timeout_s=3.0) as arm:
+        connection = arm._conn
+        arm._conn = _CtrlCAt(connection, method)
+        with pytest.raises(KeyboardInterrupt):
+            arm.tcp_pose()
+        arm._conn = connection
+        np.testing.assert_allclose(arm.tcp_offset(), ur_pose_to_matrix(list(tcp_offset)), atol=1e-9)
+        assert arm.status().runtime_state == RuntimeState.PLAYING  # the session goes on
 
 
 def test_remote_control_off_is_refused_at_connect(sim_controller: SimFactory) -> None:

@@ -118,6 +118,9 @@ def test_safeguard_stop_pauses_the_program(sim_controller: Factory) -> None:
         d.closeSafetyPopup()
         d.play()
         wait_for(lambda: r.getRuntimeState() == 2 and r.getSafetyMode() == 1)
+        # The control interface reads its own RTDE stream, which may show the resume a cycle
+        # after the receive interface's.
+        wait_for(c.isProgramRunning)
         assert c.moveL(shifted(r.getActualTCPPose(), -0.01))
 
 

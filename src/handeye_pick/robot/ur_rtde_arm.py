@@ -675,18 +675,18 @@ class URRtdeArm:
                 "start a new one"
             )
         if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first
-            self._pending_reply = False
             self._receive(operation, timeout_s)
         try:
             with _ctrl_c_held():
                 self._conn.send((operation, args))
+                # Set inside the hold: a Ctrl-C held during the send is raised as the hold ends,
+                # and the next call must still drain this request's answer.
+                self._pending_reply = True
         except OSError as exc:
             self._dead_reason = f"the ur_rtde process is gone ({exc})"
             raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
-        self._pending_reply = True
         started = time.perf_counter()
         kind, value = self._receive(operation, timeout_s)
-        self._pending_reply = False
         if operation != "sample":  # cached RTDE state polled during moves: no controller traffic
             log.debug(
                 "%s%s -> %s %.60r in %.2f ms",
@@ -719,6 +719,9 @@ class URRtdeArm:
             try:
                 with _ctrl_c_held():
                     message = self._conn.recv()
+                    # Cleared inside the hold, for the same reason: a Ctrl-C raised as the hold
+                    # ends must not leave the next call waiting for an answer already read.
+                    self._pending_reply = False
             except (EOFError, OSError):
                 self._dead_reason = "the ur_rtde process closed its pipe (it probably crashed)"
             else:
