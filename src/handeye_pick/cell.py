@@ -329,10 +329,17 @@ class Cell:
 
     def status(self) -> CellStatus:
         """Controller state, TCP offset against the config, poses, and every readiness problem
-        (halted included). Reads only; works while halted."""
+        (halted included). Reads only; works while halted. A cell halted by a lost link has no
+        robot session left: it reads the controller from outside (``inspect``), so the operator
+        still sees what the pendant would show."""
         if self._arm is None:
-            reason = self._halted or "not connected"
-            return CellStatus(False, [reason], self._halted, *([None] * 7))
+            if self._halted is None:
+                return CellStatus(False, ["not connected"], None, *([None] * 7))
+            try:
+                return self.inspect()
+            except RobotConnectionError as exc:
+                problems = [self._halted_problem(), f"the controller does not answer ({exc})"]
+                return CellStatus(False, problems, self._halted, *([None] * 7))
         robot = self.config.robot
         state = self._arm.status()
         try:
@@ -387,10 +394,12 @@ class Cell:
                 "5.5.1 on do), so status cannot check the active TCP offset without stopping "
                 "the controller's program: update PolyScope, or check with pick --dry-run"
             )
+            if self._halted is not None:
+                problems.insert(0, self._halted_problem())
             return CellStatus(
                 ready=False,
                 problems=problems,
-                halted=None,
+                halted=self._halted,
                 robot=readout.status,
                 T_flange_tcp=None,
                 tcp_offset_difference=None,
@@ -416,6 +425,9 @@ class Cell:
             state, program_state=readout.program_state, loaded_program=readout.loaded_program
         )
 
+    def _halted_problem(self) -> str:
+        return f"halted after a fault ({self._halted}): clear it, then resume"
+
     def _status(
         self,
         problems: list[str],
@@ -424,7 +436,7 @@ class Cell:
         T_base_flange: Transform | None,
     ) -> CellStatus:
         if self._halted is not None:
-            problems.insert(0, f"halted after a fault ({self._halted}): clear it, then resume")
+            problems.insert(0, self._halted_problem())
         if T_flange_tcp is None or T_base_flange is None:
             return CellStatus(not problems, problems, self._halted, state, *([None] * 6))
         T_base_tcp = compose(T_base_flange, T_flange_tcp)

@@ -291,6 +291,28 @@ def _unlock_protective_stop(host: str) -> None:
         assert "releasing" in reader.readline().lower()
 
 
+def test_status_after_a_lost_link_reads_the_controller_from_outside(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # A lost link ends the robot session; the operator still sees the pendant's side.
+    ctl = sim_controller(
+        tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("drop-connection@move:3:0.5",)
+    )
+    with loop(loop_config(tmp_path, ctl.host)) as run:
+        run.ask({"id": "m", "op": "move", "pose": "home"})
+        captured = run.ask({"id": "c", "op": "capture"})
+        detection = detection_for(ur_pose_to_matrix(captured["flange_pose_ur"]), OBJECT_BASE_M)
+        fault = run.ask({"id": "1", "op": "pick", "capture_id": "c1", "candidates": [detection]})
+        assert (fault["ok"], fault["status"]) == (False, "fault"), fault
+        status = run.ask({"id": "2", "op": "status"})
+        assert (status["ready"], status["halted"]) == (False, True), status
+        assert status["problems"][0].startswith("halted after a fault"), status
+        flange = ur_pose_to_matrix(list(ctl.snapshot().flange_pose))
+        np.testing.assert_allclose(ur_pose_to_matrix(status["flange_pose_ur"]), flange, atol=1e-6)
+        resumed = run.ask({"id": "3", "op": "resume"})
+        assert (resumed["ok"], resumed["status"]) == (True, "ready"), resumed
+
+
 def test_a_fault_mid_cycle_halts_the_loop_until_resume(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
