@@ -39,12 +39,27 @@ def _silence(conn: socket.socket) -> None:
     threading.Event().wait(10.0)
 
 
-def _wrong_types(conn: socket.socket) -> None:
+def _handshake(conn: socket.socket) -> None:
+    """Protocol version 2 accepted, version 5.15.0.1234, then the output setup request read."""
     conn.recv(64)
     conn.sendall(struct.pack(">HBB", 4, ord("V"), 1))
+    conn.recv(64)
+    conn.sendall(struct.pack(">HB4I", 19, ord("v"), 5, 15, 0, 1234))
     conn.recv(512)
-    types = b"\x01" + b"BOOL," * 6 + b"BOOL"
+
+
+def _answer_setup(conn: socket.socket, types: bytes) -> None:
+    _handshake(conn)
     conn.sendall(struct.pack(">HB", 3 + len(types), ord("O")) + types)
+    threading.Event().wait(10.0)  # the client must not wait for more
+
+
+def _wrong_types(conn: socket.socket) -> None:
+    _answer_setup(conn, b"\x01" + b"BOOL," * 6 + b"BOOL")
+
+
+def _too_few_types(conn: socket.socket) -> None:
+    _answer_setup(conn, b"\x01DOUBLE")
 
 
 @pytest.fixture
@@ -74,11 +89,14 @@ def rtde_peer() -> Iterator[Callable[[Peer], str]]:
 
 
 @pytest.mark.parametrize(
-    "peer", [_text_messages_forever, _close_at_once, _short_size, _silence, _wrong_types]
+    "peer",
+    [_text_messages_forever, _close_at_once, _short_size, _silence, _wrong_types, _too_few_types],
 )
 def test_a_peer_off_protocol_is_one_connection_error(
     rtde_peer: Callable[[Peer], str], peer: Peer
 ) -> None:
     host = rtde_peer(peer)
-    with pytest.raises(RobotConnectionError, match=f"RTDE port {RTDE_PORT}"):
+    with pytest.raises(RobotConnectionError, match=f"RTDE port {RTDE_PORT}") as caught:
         read_controller(host)
+    if peer in (_wrong_types, _too_few_types):  # refused for what it said, not for silence
+        assert "output setup" in str(caught.value) or "recipe" in str(caught.value), caught.value

@@ -19,6 +19,7 @@ TCP offset), ``T_flange_tcp`` is ``tcp_offset``, both from the same controller c
 
 from __future__ import annotations
 
+import math
 import socket
 import struct
 import time
@@ -158,9 +159,10 @@ def _setup_outputs(sock: socket.socket, names: list[str]) -> tuple[int, list[str
     payload = struct.pack(">d", FREQUENCY_HZ) + ",".join(names).encode("ascii")
     _request(sock, _SETUP_OUTPUTS, payload)
     reply = _reply(sock, _SETUP_OUTPUTS)
-    if not reply:
-        raise _Protocol("empty output setup reply")
-    return reply[0], reply[1:].decode("ascii", errors="replace").split(",")
+    types = reply[1:].decode("ascii", errors="replace").split(",")
+    if not reply or len(types) != len(names):
+        raise _Protocol(f"output setup for {len(names)} fields answered {reply[1:80]!r}")
+    return reply[0], types
 
 
 def _unpack(
@@ -175,6 +177,8 @@ def _unpack(
     for name, kind in zip(names, types, strict=True):
         width = 6 if kind == "VECTOR6D" else 1
         values[name] = tuple(float(v) for v in flat[at : at + width])
+        if not all(math.isfinite(v) for v in values[name]):
+            raise _Protocol(f"{name} is not finite: {values[name]}")
         at += width
     return values
 
