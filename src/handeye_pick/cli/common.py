@@ -245,9 +245,7 @@ def camera_chain_from_args(args: argparse.Namespace) -> CameraChain:
     return CameraChain(calibration, T_base_flange, calibration.T_base_cam(T_base_flange))
 
 
-def measured_camera_from_args(
-    args: argparse.Namespace, mode: HandEyeMode
-) -> MeasuredCamera | None:
+def measured_camera_from_args(args: argparse.Namespace, mode: HandEyeMode) -> MeasuredCamera | None:
     """``--camera-position-mm`` with its tolerance, checked; None when no position was given."""
     tolerance_mm = args.camera_position_tolerance_mm
     if args.camera_position_mm is None:
