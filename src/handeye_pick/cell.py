@@ -227,6 +227,7 @@ class Cell:
         self._capture_numbers = itertools.count(1)
         self._cycle = 0
         self._place_index = 0
+        self._holding: GraspState | None = None  # a part picked and not yet placed
         self._fixed_verdicts: ControllerVerdicts = {}
         self._audit: AuditLog | None = None
 
@@ -322,6 +323,8 @@ class Cell:
                 f"cell on {self.config.robot.host} is still not ready, staying halted: "
                 + "; ".join(status.problems)
             )
+        # What the gripper holds after the operator's recovery is unknown: watch no part.
+        self._holding = None
         log.warning("cell %s resumed (was halted: %s)", self.config.robot.host, reason)
         return status
 
@@ -700,6 +703,7 @@ class Cell:
                     status = "placed"
                 else:
                     status = "picked"
+                    self._holding = done.grasp  # carried until a place releases it
             errors = reached_errors(steps, reached)
             outcome.update(
                 status=status,
@@ -817,6 +821,7 @@ class Cell:
         T_place = place.T_base_tcp[self._place_index % len(place.T_base_tcp)]
         record = {"place_index": self._place_index}
         self._run_fixed(place_steps(T_place, place, grip=True), "place", request_id, record)
+        self._holding = None
         self._place_index += 1
         return T_place
 
@@ -857,7 +862,13 @@ class Cell:
                 }
             )
             reached = execute(
-                self.config, steps, self.arm, self.progress, outcome, gripper=self._gripper
+                self.config,
+                steps,
+                self.arm,
+                self.progress,
+                outcome,
+                gripper=self._gripper,
+                holding=self._holding,  # a carried part is watched on every move
             ).reached
             outcome["status"] = "done"
         return reached

@@ -275,6 +275,7 @@ def execute(
     outcome: dict[str, object],
     before_move: Callable[[str], None] | None = None,
     gripper: Gripper | None = None,
+    holding: GraspState | None = None,
 ) -> Executed:
     """Run ``steps`` in order.
 
@@ -288,6 +289,8 @@ def execute(
     (``Executed.grasp`` says so). A held part (confirmed or unconfirmed) gets the object payload
     before the next move, the empty tool's after its release. While a confirmed part is carried,
     every move watches it; a lost part raises ``PartDropped`` (the adapter stops the arm).
+    ``holding`` is the grasp of a part already held when the sequence starts (a pick that did
+    not place it), watched the same way.
     """
     motion = config.motion
     reached: dict[str, Transform] = {}
@@ -296,7 +299,7 @@ def execute(
     commands: list[dict[str, object]] = []
     if gripper is not None:
         outcome["gripper"] = {"kind": gripper.kind, "commands": commands}
-    grasp: GraspState | None = None
+    grasp = holding
     last_move: str | None = None  # a missed grasp ends the sequence after this move
     T_base_tcp_from: Transform | None = None
     for step in steps:

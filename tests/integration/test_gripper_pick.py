@@ -158,6 +158,26 @@ def test_part_dropped_during_retreat_stops_the_arm_and_halts_the_runner(
     assert outcome["error"]["type"] == PartDropped.__name__
 
 
+def test_a_part_held_between_pick_and_place_is_watched_on_every_move(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # pick without placing (motions 1-3), move home (4), then place: the part slips out on the
+    # way home, and the move that carries it is stopped like the pick's own.
+    ctl = sim_controller(
+        tcp_offset=TCP_OFFSET, part_width_mm=PART_MM, inject=("gripper-drop@move:4:0.3",)
+    )
+    home = "  home: {tcp_pose: [-0.45, -0.1, 0.4, 3.14159265, 0, 0]}\n"
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, poses=home)
+    with Cell(config) as cell:
+        picked = cell.pick(load_detection(DEMO / "detection.yaml"), place=False)
+        assert picked.status == "picked"
+        with pytest.raises(PartDropped, match="lost the part"):
+            cell.move_to("home")
+        assert cell.halted is not None
+    assert [kind for kind, _ in commands(ctl)][-2:] == ["moveL", "stopL"]
+    assert audit_records(tmp_path)[-1]["status"] == "dropped"
+
+
 @pytest.mark.parametrize(
     ("fault", "message"),
     [("gripper-fault:8", r"0x08 \(maximum operating temperature"), ("gripper-silent", "silent")],
