@@ -217,8 +217,14 @@ def test_claimed_input_registers_are_in_use_for_others_until_released(
         with connect(ctl.host) as second:
             refused = second.setup_inputs(["input_double_register_5"])
             assert (refused.recipe_id, refused.types) == (0, ("IN_USE",))
-    with connect(ctl.host) as third:
-        assert third.setup_inputs(names).accepted  # released when the first closed
+    # Released when the first closed: the controller learns of the close a moment later.
+    deadline = time.monotonic() + 5.0
+    while True:
+        with connect(ctl.host) as third:
+            if third.setup_inputs(names).accepted:
+                break
+        assert time.monotonic() < deadline, "the claim was never released"
+        time.sleep(0.01)
 
 
 def test_pause_and_start_again(ctl: SimulatedController) -> None:
