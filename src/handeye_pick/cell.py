@@ -49,7 +49,7 @@ from handeye_pick.errors import (
     RobotFault,
     SafetyRefusal,
 )
-from handeye_pick.geometry import Transform, compose, invert, ur_pose_list
+from handeye_pick.geometry import Transform, compose, ur_pose_list
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
 from handeye_pick.pick import (
     JointMove,
@@ -390,40 +390,22 @@ class Cell:
                 f"a program is running on the controller ({readout.program_state}): a pick "
                 "would stop it; stop it on the pendant, or let the session that runs it finish"
             )
-        T_flange_tcp = readout.T_flange_tcp
-        if T_flange_tcp is None:
+        if readout.T_flange_tcp is None:
             problems.append(
                 "this controller does not serve tcp_offset over RTDE (PolyScope 3.12.3 and "
                 "5.5.1 on do), so status cannot check the active TCP offset without stopping "
                 "the controller's program: update PolyScope, or check with pick --dry-run"
             )
-            if self._halted is not None:
-                problems.insert(0, self._halted_problem())
-            return CellStatus(
-                ready=False,
-                problems=problems,
-                halted=self._halted,
-                robot=readout.status,
-                T_flange_tcp=None,
-                tcp_offset_difference=None,
-                T_base_flange=None,
-                T_base_tcp=readout.T_base_tcp,
-                T_base_cam=None,
-                tcp_outside_workspace=None,
-                program_state=readout.program_state,
-                loaded_program=readout.loaded_program,
+        else:
+            problems.extend(
+                tcp_offset_problems(
+                    readout.T_flange_tcp,
+                    robot.T_flange_tcp,
+                    tolerance_mm=robot.tcp_offset_tolerance_mm,
+                    tolerance_deg=robot.tcp_offset_tolerance_deg,
+                )
             )
-        problems.extend(
-            tcp_offset_problems(
-                T_flange_tcp,
-                robot.T_flange_tcp,
-                tolerance_mm=robot.tcp_offset_tolerance_mm,
-                tolerance_deg=robot.tcp_offset_tolerance_deg,
-            )
-        )
-        state = self._status(
-            problems, readout.status, T_flange_tcp, readout.T_base_tcp @ invert(T_flange_tcp)
-        )
+        state = self._status(problems, readout.status, readout.T_flange_tcp, readout.T_base_flange)
         return replace(
             state, program_state=readout.program_state, loaded_program=readout.loaded_program
         )
@@ -485,13 +467,13 @@ class Cell:
         host = self.config.robot.host
         with self.progress.step(f"reading {host}"):
             readout = read_controller(host)
-        if readout.T_flange_tcp is None:
+        if readout.T_flange_tcp is None or readout.T_base_flange is None:
             raise RobotFault(
                 f"cell {host}: the controller serves no tcp_offset over RTDE (PolyScope older "
                 "than 3.12.3 / 5.5.1), so the flange pose cannot be read without starting a "
                 "program: give the flange pose (--robot-pose or --robot-pose-ur)"
             )
-        return readout.T_flange_tcp, readout.T_base_tcp @ invert(readout.T_flange_tcp)
+        return readout.T_flange_tcp, readout.T_base_flange
 
     # --- capture -----------------------------------------------------------------------------
 
@@ -703,7 +685,8 @@ class Cell:
                     status = "placed"
                 else:
                     status = "picked"
-                    self._holding = done.grasp  # carried until a place releases it
+                # A part picked and not placed is carried until a place releases it.
+                self._holding = done.grasp if status == "picked" else None
             errors = reached_errors(steps, reached)
             outcome.update(
                 status=status,

@@ -178,6 +178,23 @@ def test_a_part_held_between_pick_and_place_is_watched_on_every_move(
     assert audit_records(tmp_path)[-1]["status"] == "dropped"
 
 
+def test_a_part_placed_by_a_later_pick_is_no_longer_watched(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    # pick without placing, then a pick that places: the gripper is empty afterwards, and the
+    # next move must not take the open gripper for a dropped part.
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, part_width_mm=PART_MM, instant=True)
+    home = "  home: {tcp_pose: [-0.45, -0.1, 0.4, 3.14159265, 0, 0]}\n"
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, poses=home)
+    detection = load_detection(DEMO / "detection.yaml")
+    with Cell(config) as cell:
+        capture = cell.capture()
+        assert cell.pick(detection, capture, place=False).status == "picked"
+        assert cell.pick(detection, capture).status == "placed"
+        cell.move_to("home")
+        assert cell.halted is None
+
+
 @pytest.mark.parametrize(
     ("fault", "message"),
     [("gripper-fault:8", r"0x08 \(maximum operating temperature"), ("gripper-silent", "silent")],

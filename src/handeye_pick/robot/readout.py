@@ -26,7 +26,7 @@ import time
 from dataclasses import dataclass
 
 from handeye_pick.errors import RobotConnectionError
-from handeye_pick.geometry import Transform, ur_pose_to_matrix
+from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
 from handeye_pick.robot.port import RobotStatus, RuntimeState
 
 RTDE_PORT = 30004
@@ -85,6 +85,14 @@ class ControllerReadout:
     program_state: str | None
     loaded_program: str | None
     dashboard_problem: str | None
+
+    @property
+    def T_base_flange(self) -> Transform | None:
+        """``T_base_tcp @ inv(T_flange_tcp)`` (m), both from the same cycle; None without
+        ``tcp_offset``."""
+        if self.T_flange_tcp is None:
+            return None
+        return self.T_base_tcp @ invert(self.T_flange_tcp)
 
     @property
     def program_running(self) -> bool:
