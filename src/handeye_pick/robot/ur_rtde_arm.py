@@ -49,12 +49,12 @@ from handeye_pick.robot.port import (
     SafetyMode,
     mode_name,
 )
+from handeye_pick.robot.readout import DASHBOARD_PORT
 from handeye_pick.robot.worker import Failure, Sample
 
 log = logging.getLogger(__name__)
 
 WORKER_SCRIPT = Path(__file__).with_name("worker.py")
-DASHBOARD_PORT = 29999
 POLL_PERIOD_S = 0.004
 """How often a running move is watched: two RTDE cycles at 500 Hz."""
 REACHED_TOLERANCE_M = 0.001
