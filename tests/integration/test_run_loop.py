@@ -168,9 +168,7 @@ def test_the_latched_pose_is_used_when_the_arm_moved_since_the_capture(
             place=ONE_PLACE,
         )
     ) as run:
-        run.ask({"id": "m", "op": "move", "pose": "home"})
-        captured = run.ask({"id": "c", "op": "capture"})
-        T_capture = ur_pose_to_matrix(captured["flange_pose_ur"])
+        T_capture = _home_and_capture(run)
         detection = detection_for(T_capture, OBJECT_BASE_M)
         # Zivid's advice: move on as soon as the capture returns. The arm is elsewhere now.
         assert run.ask({"id": "a", "op": "move", "pose": "aside"})["ok"] is True
@@ -180,7 +178,7 @@ def test_the_latched_pose_is_used_when_the_arm_moved_since_the_capture(
             {
                 "id": "p",
                 "op": "pick",
-                "capture_id": captured["capture_id"],
+                "capture_id": "c1",
                 "candidates": [detection],
             }
         )
@@ -246,9 +244,7 @@ def test_no_candidate_refused_and_picked_statuses(
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     config = write_config(tmp_path, ctl.host, poses=LOOP_SECTIONS["poses"])  # no place section
     with loop(config) as run:
-        run.ask({"id": "m", "op": "move", "pose": "home"})
-        captured = run.ask({"id": "c", "op": "capture"})
-        T_capture = ur_pose_to_matrix(captured["flange_pose_ur"])
+        T_capture = _home_and_capture(run)
         below_table = detection_for(T_capture, np.array([-0.52, -0.10, -0.05]))
         far = detection_for(T_capture, np.array([-0.52, 0.85, 0.06]))  # beyond max y
         before = len(motion_commands(ctl))
@@ -283,6 +279,13 @@ def test_no_candidate_refused_and_picked_statuses(
         assert picked["refused"][0]["candidate"] == 0
 
 
+def _home_and_capture(run: Loop) -> np.ndarray:
+    """Move home, capture there (capture id c1); the latched T_base_flange (m)."""
+    run.ask({"id": "m", "op": "move", "pose": "home"})
+    captured = run.ask({"id": "c", "op": "capture"})
+    return ur_pose_to_matrix(captured["flange_pose_ur"])
+
+
 def _unlock_protective_stop(host: str) -> None:
     with socket.create_connection((host, 29999), timeout=5.0) as dashboard:
         reader = dashboard.makefile("r")
@@ -299,9 +302,7 @@ def test_status_after_a_lost_link_reads_the_controller_from_outside(
         tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("drop-connection@move:3:0.5",)
     )
     with loop(loop_config(tmp_path, ctl.host)) as run:
-        run.ask({"id": "m", "op": "move", "pose": "home"})
-        captured = run.ask({"id": "c", "op": "capture"})
-        detection = detection_for(ur_pose_to_matrix(captured["flange_pose_ur"]), OBJECT_BASE_M)
+        detection = detection_for(_home_and_capture(run), OBJECT_BASE_M)
         fault = run.ask({"id": "1", "op": "pick", "capture_id": "c1", "candidates": [detection]})
         assert (fault["ok"], fault["status"]) == (False, "fault"), fault
         status = run.ask({"id": "2", "op": "status"})
@@ -320,9 +321,7 @@ def test_a_fault_mid_cycle_halts_the_loop_until_resume(
         tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("protective-stop@move:3:0.5",)
     )
     with loop(loop_config(tmp_path, ctl.host)) as run:
-        run.ask({"id": "m", "op": "move", "pose": "home"})
-        captured = run.ask({"id": "c", "op": "capture"})
-        detection = detection_for(ur_pose_to_matrix(captured["flange_pose_ur"]), OBJECT_BASE_M)
+        detection = detection_for(_home_and_capture(run), OBJECT_BASE_M)
         pick = {"op": "pick", "capture_id": "c1", "candidates": [detection]}
         fault = run.ask({"id": "1", **pick})  # the grasp move (3rd motion) is stopped
         assert (fault["ok"], fault["status"]) == (False, "fault"), fault
@@ -367,9 +366,7 @@ def test_sigterm_mid_move_stops_the_arm_answers_and_exits_143(
 ) -> None:
     ctl = sim_controller(tcp_offset=TCP_OFFSET, speed_factor=0.3)
     with loop(loop_config(tmp_path, ctl.host)) as run:
-        run.ask({"id": "m", "op": "move", "pose": "home"})
-        captured = run.ask({"id": "c", "op": "capture"})
-        detection = detection_for(ur_pose_to_matrix(captured["flange_pose_ur"]), OBJECT_BASE_M)
+        detection = detection_for(_home_and_capture(run), OBJECT_BASE_M)
         run.send(
             json.dumps({"id": "p", "op": "pick", "capture_id": "c1", "candidates": [detection]})
         )
