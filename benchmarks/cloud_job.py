@@ -32,8 +32,8 @@ import numpy as np
 from measure import ROOT, console_script, machine, print_table, side_by_side
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import HandEyeMode, load_hand_eye
-from handeye_pick.cloudio import PointCloud, write_cloud
+from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
+from handeye_pick.cloud.files import PointCloud, write_cloud
 from handeye_pick.geometry import scale_translation
 
 CALIBRATION = ROOT / "config" / "calibration" / "EyeToHandTransform.yaml"

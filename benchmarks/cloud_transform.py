@@ -34,13 +34,13 @@ import numpy as np
 from measure import run_once
 from numpy.typing import NDArray
 
-from handeye_pick import cloud
-from handeye_pick.cloud import transform_points
+from handeye_pick.cloud import transform as cloud
+from handeye_pick.cloud.transform import transform_points
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec
 
 TARGET_RATIO = {np.dtype(np.float32): 1.5, np.dtype(np.float64): 1.1}
 
-_IMPORT_ONLY = "import numpy as np; from handeye_pick import cloud"
+_IMPORT_ONLY = "import numpy as np; from handeye_pick.cloud import transform as cloud"
 _LOAD_KERNEL = (
     _IMPORT_ONLY + "; cloud._compile_kernel()(np.zeros(3, np.float32), "
     "np.eye(3, dtype=np.float32), np.zeros(3, np.float32))"

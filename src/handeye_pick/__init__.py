@@ -13,16 +13,17 @@ from typing import TYPE_CHECKING, Any
 
 __version__ = "0.1.0"
 
-# Public name -> the module that defines it. A new export (e.g. "Cell": "handeye_pick.cell") is a
-# line here, its name in __all__ and its import under TYPE_CHECKING.
+# Public name -> the module that defines it. A new export (e.g. "Cell":
+# "handeye_pick.cell.session") is a line here, its name in __all__ and its import under
+# TYPE_CHECKING.
 _EXPORTS = {
-    "Cell": "handeye_pick.cell",
-    "Capture": "handeye_pick.cell",
-    "CellStatus": "handeye_pick.cell",
-    "PickResult": "handeye_pick.cell",
-    "NoFeasibleCandidate": "handeye_pick.cell",
-    "PreflightRefusal": "handeye_pick.cell",
-    "load_config": "handeye_pick.config",
+    "Cell": "handeye_pick.cell.session",
+    "Capture": "handeye_pick.cell.session",
+    "CellStatus": "handeye_pick.cell.session",
+    "PickResult": "handeye_pick.cell.session",
+    "NoFeasibleCandidate": "handeye_pick.cell.session",
+    "PreflightRefusal": "handeye_pick.cell.session",
+    "load_config": "handeye_pick.config.schema",
     "load_detection": "handeye_pick.detection",
     "detection_from_point_mm": "handeye_pick.detection",
     "Detection": "handeye_pick.detection",
@@ -33,7 +34,7 @@ _EXPORTS = {
     "RobotError": "handeye_pick.errors",
     "RobotFault": "handeye_pick.errors",
     "RobotConnectionError": "handeye_pick.errors",
-    "transform_points": "handeye_pick.cloud",
+    "transform_points": "handeye_pick.cloud.transform",
 }
 
 __all__ = [  # the same names as _EXPORTS (tests/unit/test_light_imports.py checks)
@@ -59,7 +60,7 @@ __all__ = [  # the same names as _EXPORTS (tests/unit/test_light_imports.py chec
 ]
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ imports these
-    from handeye_pick.cell import (
+    from handeye_pick.cell.session import (
         Capture,
         Cell,
         CellStatus,
@@ -67,8 +68,8 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ im
         PickResult,
         PreflightRefusal,
     )
-    from handeye_pick.cloud import transform_points
-    from handeye_pick.config import load_config
+    from handeye_pick.cloud.transform import transform_points
+    from handeye_pick.config.schema import load_config
     from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
     from handeye_pick.errors import (
         CellHalted,

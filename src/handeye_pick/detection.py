@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from handeye_pick.calibration import (
+from handeye_pick.calibration.files import (
     MAX_ROTVEC_RAD,
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.config import Fields, read_yaml_mapping
+from handeye_pick.config.schema import Fields, read_yaml_mapping
 from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,

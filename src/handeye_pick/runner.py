@@ -28,8 +28,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from handeye_pick.calibration import HandEyeMode
-from handeye_pick.cell import Capture, Cell, NoFeasibleCandidate, PickResult
+from handeye_pick.calibration.files import HandEyeMode
+from handeye_pick.cell.session import Capture, Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.detection import Detection, detection_from_data
 from handeye_pick.errors import (
     CellHalted,

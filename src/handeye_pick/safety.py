@@ -16,7 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye_pick.config import MotionConfig, WorkspaceConfig
+from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
 from handeye_pick.limits import (

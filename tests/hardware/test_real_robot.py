@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from handeye_pick.geometry import compose, invert, rotation_angle_between
-from handeye_pick.robot.ur_rtde_arm import URRtdeArm
+from handeye_pick.robot.ur.arm import URRtdeArm
 
 pytestmark = pytest.mark.hardware
 

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye_pick.calibration import write_zivid_transform
+from handeye_pick.calibration.files import write_zivid_transform
 from handeye_pick.geometry import ur_pose_to_matrix
 from tests.conftest import TEST_WATCHDOG_S
 

@@ -17,7 +17,7 @@ import pytest
 from handeye_pick.errors import RobotConnectionError, RobotFault
 from handeye_pick.geometry import Transform
 from handeye_pick.robot.port import OutputBank, RuntimeState, SafetyMode
-from handeye_pick.robot.ur_rtde_arm import URRtdeArm
+from handeye_pick.robot.ur.arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 from tests.integration.test_pick_cli import (

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.cell import Cell
+from handeye_pick.cell.session import Cell
 from handeye_pick.detection import load_detection
 from handeye_pick.errors import GripperFault, PartDropped
 from handeye_pick.geometry import ur_pose_to_matrix

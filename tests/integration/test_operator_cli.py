@@ -20,11 +20,11 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from handeye_pick.calibration import load_hand_eye
+from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.geometry import ur_pose_to_matrix
 from handeye_pick.plot import FIGURE_SIZE_PX
 from handeye_pick.robot.port import RuntimeState
-from handeye_pick.robot.ur_rtde_arm import URRtdeArm
+from handeye_pick.robot.ur.arm import URRtdeArm
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 from tests.integration.test_pick_cli import CLI, audit_records

@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration import HandEyeMode, load_hand_eye
+from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
 from handeye_pick.detection import load_detection
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix
 from mocks.ur_controller import SimulatedController

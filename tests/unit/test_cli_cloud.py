@@ -12,7 +12,7 @@ import pytest
 from numpy.typing import NDArray
 
 from handeye_pick.cli import main
-from handeye_pick.cloudio import PointCloud, read_cloud, write_cloud
+from handeye_pick.cloud.files import PointCloud, read_cloud, write_cloud
 
 
 def write_zivid_matrix(path: Path, rows: list[list[float]]) -> Path:

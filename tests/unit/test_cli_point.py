@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration import read_transform_file, write_zivid_transform
+from handeye_pick.calibration.files import read_transform_file, write_zivid_transform
 from handeye_pick.cli import main
 from handeye_pick.geometry import (
     invert,

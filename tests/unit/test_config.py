@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 import yaml
 
-from handeye_pick.calibration import HandEyeMode
-from handeye_pick.config import CellConfig, GripperConfig, load_config, read_yaml_mapping
+from handeye_pick.calibration.files import HandEyeMode
+from handeye_pick.calibration.plausibility import MeasuredCamera
+from handeye_pick.config.schema import CellConfig, GripperConfig, load_config, read_yaml_mapping
 from handeye_pick.errors import ConfigError
-from handeye_pick.plausibility import MeasuredCamera
 from handeye_pick.robot.port import OutputBank
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -12,7 +12,8 @@ import yaml
 from hypothesis import given
 from hypothesis import strategies as st
 
-from handeye_pick.config import (
+from handeye_pick.cell.payload import held_payload
+from handeye_pick.config.schema import (
     FeedbackInput,
     GripperConfig,
     ObjectConfig,
@@ -23,7 +24,6 @@ from handeye_pick.config import (
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import make_transform, rotation_from_euler, transform_point
 from handeye_pick.gripper.robotiq import fault_text
-from handeye_pick.payload import held_payload
 from handeye_pick.robot.port import OutputBank
 from tests.unit.test_config import BASE
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 from numpy.typing import NDArray
 
-from handeye_pick.config import MotionConfig, WorkspaceConfig
+from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
 from handeye_pick.errors import RobotFault, SafetyRefusal
 from handeye_pick.geometry import Transform, make_transform, rotation_from_euler
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS

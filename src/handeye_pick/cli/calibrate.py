@@ -7,17 +7,17 @@ import json
 import logging
 from pathlib import Path
 
-from handeye_pick.calibration import HandEyeMode, write_zivid_transform
-from handeye_pick.cli.common import UNITS
-from handeye_pick.errors import InputError
-from handeye_pick.handeye_dataset import read_dataset
-from handeye_pick.handeye_report import (
+from handeye_pick.calibration.dataset import read_dataset
+from handeye_pick.calibration.files import HandEyeMode, write_zivid_transform
+from handeye_pick.calibration.report import (
     TRANSFORM_NAMES,
     result_record,
     result_table,
     write_residuals,
 )
-from handeye_pick.handeye_solver import MIN_PAIRS, MeasurementNoise, solve_hand_eye
+from handeye_pick.calibration.solver import MIN_PAIRS, MeasurementNoise, solve_hand_eye
+from handeye_pick.cli.common import UNITS
+from handeye_pick.errors import InputError
 
 log = logging.getLogger(__name__)
 

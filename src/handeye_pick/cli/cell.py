@@ -1,5 +1,5 @@
 """Command-line pieces shared by the commands that work on a configured cell: ``pick``, ``plan``,
-``status``, ``touch-test`` and ``run``. They are clients of ``handeye_pick.cell.Cell``.
+``status``, ``touch-test`` and ``run``. They are clients of ``handeye_pick.cell.session.Cell``.
 
 Robot poses in JSON output are UR pose vectors (m, rad); the detection is in the camera frame.
 """
@@ -12,7 +12,7 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from handeye_pick.calibration import read_robot_pose_file
+from handeye_pick.calibration.files import read_robot_pose_file
 from handeye_pick.cli.common import accept_negative_exponents, camera_point_mm_from_args
 from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError
@@ -20,7 +20,7 @@ from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
 from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
-    from handeye_pick.cell import PickPlan
+    from handeye_pick.cell.session import PickPlan
 
 
 def add_config_arg(parser: argparse.ArgumentParser) -> None:

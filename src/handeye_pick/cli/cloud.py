@@ -14,8 +14,8 @@ from handeye_pick.cli.common import (
     camera_chain_from_args,
     refuse_implausible_chain,
 )
-from handeye_pick.cloud import FloatArray, transform_points
-from handeye_pick.cloudio import CloudWriter, open_cloud
+from handeye_pick.cloud.files import CloudWriter, open_cloud
+from handeye_pick.cloud.transform import FloatArray, transform_points
 from handeye_pick.geometry import metres_per, scale_translation
 
 

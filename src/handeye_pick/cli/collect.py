@@ -4,7 +4,8 @@
   directions, checked by the controller (IK, safety limits) and the config (workspace, tilt);
   writes a pose list (``pose_list``). Moves nothing.
 - ``collect``: visit the poses of a list, latch the flange pose at each and capture the board's
-  pose, writing a dataset of numbered pairs for ``calibrate`` (``handeye_pick.collect``).
+  pose, writing a dataset of numbered pairs for ``calibrate``
+  (``handeye_pick.calibration.collect``).
 
 Base-frame points on the command line are mm (like the workspace box); mounts are UR vectors
 (m, rad) like every robot pose.
@@ -22,15 +23,15 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import HandEyeMode
+from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.cli.cell import add_config_arg, print_json, progress_from_args
 from handeye_pick.cli.common import UNITS, accept_negative_exponents
 from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list, ur_pose_to_matrix
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell import Cell
-    from handeye_pick.collect import Collection
+    from handeye_pick.calibration.collect import Collection
+    from handeye_pick.cell.session import Cell
 
 DEFAULT_COUNT = 10
 DEFAULT_CAPTURE_TIMEOUT_S = 60.0  # a 3D capture and a board detection take seconds
@@ -163,8 +164,8 @@ def _add_json_arg(parser: argparse.ArgumentParser) -> None:
 
 def run_poses(args: argparse.Namespace) -> int:
     """Propose, check with the controller, write the pose list; exit 0."""
-    from handeye_pick.cell import Cell
-    from handeye_pick.pose_list import write_pose_list
+    from handeye_pick.calibration.pose_list import write_pose_list
+    from handeye_pick.cell.session import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
     mode = cell.calibration.mode
@@ -259,8 +260,8 @@ def _propose(
     T_flange_tcp: Transform,
 ) -> list[Transform]:
     """Flange poses from the mode's proposal, each checked on the cell (as its TCP target)."""
-    from handeye_pick.handeye_board_poses import propose_board_poses
-    from handeye_pick.handeye_poses import propose_poses
+    from handeye_pick.calibration.poses_eye_in_hand import propose_poses
+    from handeye_pick.calibration.poses_eye_to_hand import propose_board_poses
 
     def feasible(T_base_flange: Transform) -> bool:
         return not cell.check_pose(T_base_flange @ T_flange_tcp)
@@ -283,8 +284,7 @@ def _smallest_separation_deg(poses: list[Transform]) -> float:
 
 def run_collect(args: argparse.Namespace) -> int:
     """Collect the dataset; exit 0 when every pose was visited (skipped ones are listed)."""
-    from handeye_pick.cell import Cell
-    from handeye_pick.collect import (
+    from handeye_pick.calibration.collect import (
         CaptureStep,
         Collection,
         CommandCapture,
@@ -293,7 +293,8 @@ def run_collect(args: argparse.Namespace) -> int:
         collect_pairs,
         first_pair_number,
     )
-    from handeye_pick.pose_list import read_pose_list
+    from handeye_pick.calibration.pose_list import read_pose_list
+    from handeye_pick.cell.session import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
     pose_list = read_pose_list(args.poses)

@@ -16,16 +16,14 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration import (
+from handeye_pick.calibration.files import (
     HandEyeCalibration,
     HandEyeMode,
     load_hand_eye,
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform
-from handeye_pick.plausibility import (
+from handeye_pick.calibration.plausibility import (
     CAMERA_POSITION_TOLERANCE_MM,
     CHECKS,
     MAX_CAMERA_POSITION_TOLERANCE_MM,
@@ -34,6 +32,8 @@ from handeye_pick.plausibility import (
     measured_position_problem,
     refuse_implausible,
 )
+from handeye_pick.errors import InputError
+from handeye_pick.geometry import Transform
 
 log = logging.getLogger(__name__)
 
@@ -208,8 +208,8 @@ def camera_point_mm_from_args(args: argparse.Namespace) -> NDArray[np.float64] |
     if args.pixel is None:
         raise InputError(f"--cloud {args.cloud} needs --pixel COL ROW to choose the point")
     # Imported here: the cloud modules serve --cloud only, not --xyz or convert.
-    from handeye_pick.cloud import pick_point
-    from handeye_pick.cloudio import read_cloud
+    from handeye_pick.cloud.files import read_cloud
+    from handeye_pick.cloud.transform import pick_point
 
     col, row = args.pixel
     return pick_point(read_cloud(args.cloud).xyz, col, row)

@@ -37,7 +37,7 @@ from handeye_pick.errors import HandEyePickError, InputError
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell import Cell, CellStatus, PickPlan
+    from handeye_pick.cell.session import Cell, CellStatus, PickPlan
 
 DEFAULT_STANDOFF_MM = 10.0
 
@@ -113,8 +113,8 @@ def _add_json_arg(parser: argparse.ArgumentParser) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan like a pick and write the PNG; exit 0. Nothing is sent to the robot but reads."""
-    from handeye_pick.cell import Cell
-    from handeye_pick.cloudio import read_cloud
+    from handeye_pick.cell.session import Cell
+    from handeye_pick.cloud.files import read_cloud
     from handeye_pick.geometry import compose
     from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
 
@@ -187,7 +187,7 @@ def run_status(args: argparse.Namespace) -> int:
 
     Reads from outside (``Cell.inspect``): no program is started, so the controller is left as
     it was found, and no audit file is opened, so it works beside a running session."""
-    from handeye_pick.cell import Cell
+    from handeye_pick.cell.session import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
     config = cell.config
@@ -289,7 +289,7 @@ def _show(value: object) -> str:
 
 def run_touch_test(args: argparse.Namespace) -> int:
     """Approach, descend slowly to the stand-off, go back up; exit 0 when done."""
-    from handeye_pick.cell import Cell
+    from handeye_pick.cell.session import Cell
     from handeye_pick.detection import detection_from_point_mm
 
     cell = Cell(args.config, progress=progress_from_args(args))

@@ -29,7 +29,7 @@ from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell import PickResult, StepError
+    from handeye_pick.cell.session import PickResult, StepError
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -67,8 +67,8 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 def run(args: argparse.Namespace) -> int:
     """Exit 0 when the pick (or dry run) is done; typed errors propagate to the dispatcher,
     after the JSON report is printed."""
-    from handeye_pick.cell import Cell
-    from handeye_pick.config import load_config
+    from handeye_pick.cell.session import Cell
+    from handeye_pick.config.schema import load_config
 
     report: dict[str, object] = {"status": "starting"}
     try:
@@ -113,7 +113,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:
-    from handeye_pick.cell import PreflightRefusal
+    from handeye_pick.cell.session import PreflightRefusal
 
     if isinstance(exc, KeyboardInterrupt):
         return {"status": "interrupted", "error": f"interrupted ({type(exc).__name__}): stopL sent"}

@@ -64,7 +64,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from handeye_pick.cell import Cell
+    from handeye_pick.cell.session import Cell
     from handeye_pick.runner import Runner
 
     address = _listen_address(args.listen, args.allow_remote) if args.listen else None

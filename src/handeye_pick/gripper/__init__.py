@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from handeye_pick.config import CellConfig, GripperConfig
+from handeye_pick.config.schema import CellConfig, GripperConfig
 from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.robot.port import RobotArm
 

@@ -20,7 +20,7 @@ import socket
 import time
 from collections.abc import Callable
 
-from handeye_pick.config import Robotiq2FConfig
+from handeye_pick.config.schema import Robotiq2FConfig
 from handeye_pick.errors import GripperFault
 from handeye_pick.gripper.port import GraspState
 

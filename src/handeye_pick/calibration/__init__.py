@@ -1,0 +1,1 @@
+"""Hand-eye calibration: its files, its plausibility, datasets, the solver and pose proposals."""

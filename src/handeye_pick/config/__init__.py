@@ -1,0 +1,1 @@
+"""The cell configuration: frozen typed sections read strictly from YAML."""
