@@ -3,7 +3,7 @@
 Commands and reply texts follow UR's dashboard server as UR's own client library encodes it
 (Universal_Robots_Client_Library, src/ur/dashboard_client_implementation_g5.cpp: every command
 with its reply pattern and the first CB3 and e-Series versions that have it), checked against
-what ur_rtde 1.6.5 parses (ur_rtde_protocol.md section 8). A command the controller's version
+what ur_rtde 1.6.5 parses (docs/ur-rtde.md, "Dashboard server"). A command the controller's version
 does not have is answered like an unknown one: `Could not understand: '<request>'`.
 """
 

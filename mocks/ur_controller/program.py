@@ -1,8 +1,8 @@
 """Emulation of ur_rtde's control script (rtde_control.script), one control cycle at a time.
 
-Register protocol (ur_rtde_protocol.md section 6): the client writes a command id to
+Register protocol (docs/ur-rtde.md, "Register protocol"): the client writes a command id to
 input_int_register_0 (+offset) and arguments to the other input registers; the script answers on
-output_int_register_0: 1 = ready, 2 = done with the command. Per cycle (section 6.2):
+output_int_register_0: 1 = ready, 2 = done with the command. Per cycle ("The script's loop"):
 
 - realtime ids are processed every cycle while they stay in the register, then 1 is written;
 - 0 clears the `executing` latch and writes 1;
@@ -110,7 +110,7 @@ class ControlScript:
             self._reg.out_double[self._off + i] = float(value)
 
     def _write_async_word(self, progress: int) -> None:
-        """The async progress word (section 6.6): progress >= 0 means running."""
+        """The async progress word (docs/ur-rtde.md, "Async progress word"): >= 0 is running."""
         self._async_write_count = (self._async_write_count + 1) % 128
         if progress == 0:
             self._async_op_id = (self._async_op_id + 1) % 128

@@ -1,6 +1,6 @@
 """RTDE protocol version 2 server (port 30004): framing, recipes, input claims, streaming.
 
-Wire format (UR's RTDE guide; ur_rtde_protocol.md section 2): every package is `uint16 size`
+Wire format (UR's RTDE guide; docs/ur-rtde.md, "RTDE wire format"): every package is `uint16 size`
 (big-endian, header included) + `uint8 type` + payload. Setup requests (V, v, O, I, S, P) get
 exactly one reply each, at once; text messages (M) from a client are logged, never answered.
 After S a sender thread streams the output recipe at the requested frequency, at most the

@@ -1,6 +1,6 @@
-"""Failure endings the field notes and the README promise, through the real ur_rtde against the
-simulated controller: whatever ends a move, the arm is stopped where it still listens, and nothing
-is ever unlocked or re-sent by itself.
+"""Failure endings docs/field-experience.md and the README promise, through the real ur_rtde against
+the simulated controller: whatever ends a move, the arm is stopped where it still listens, and
+nothing is ever unlocked or re-sent by itself.
 """
 
 from __future__ import annotations
@@ -68,8 +68,9 @@ def test_a_controller_silent_at_connect_is_a_bounded_connection_error(loopback_h
 def test_a_protective_stop_is_left_for_the_operator(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
-    # Field note 11: no automatic unlock, no retry. After the pick ends with the fault, the
-    # controller is still protective-stopped, and nothing but stops followed the faulted move.
+    # docs/field-experience.md, "Protective stop recovery": no automatic unlock, no retry. After the
+    # pick ends with the fault, the controller is still protective-stopped, and nothing but stops
+    # followed the faulted move.
     ctl = sim_controller(
         tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("protective-stop@move:2:0.5",)
     )
@@ -115,7 +116,8 @@ def test_a_cell_refusing_the_control_program_is_audited(
 
 
 def test_the_flange_is_never_read_from_a_stalled_stream(sim_controller: SimFactory) -> None:
-    # Field note 4: a pose must come from a sample newer than the request. While the RTDE
+    # docs/field-experience.md, "Stale first sample": a pose must come from a sample newer
+    # than the request. While the RTDE
     # stream pauses, ur_rtde still answers with its last cached pose; that must not pass.
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
@@ -145,9 +147,10 @@ def test_a_move_that_ends_away_from_its_target_is_a_fault(sim_controller: SimFac
 def test_a_gripper_output_is_confirmed_by_the_controller(
     sim_controller: SimFactory, bank: OutputBank, field: str
 ) -> None:
-    # ur_rtde's IO setters return True once the package is written (ur_rtde_protocol.md 7):
-    # True says nothing. The output counts as set when the controller's data shows it, and an
-    # output that cannot be confirmed (the RTDE stream stalls) is an error, not a silent True.
+    # ur_rtde's IO setters return True once the package is written (docs/ur-rtde.md, "IO
+    # interface"): True says nothing. The output counts as set when the controller's data shows it,
+    # and an output that cannot be confirmed (the RTDE stream stalls) is an error, not a silent
+    # True.
     ctl = sim_controller(instant=True)
     with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, with_io=True) as arm:
         arm.set_digital_output(bank, 1, True)
@@ -161,7 +164,8 @@ def test_a_pick_killed_mid_move_is_stopped_by_the_controller_watchdog(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
     # SIGKILL leaves no chance to send stopL: the ur_rtde process sees its parent's pipe close,
-    # stops kicking ur_rtde's watchdog, and the control script stops the program (field note 17).
+    # stops kicking ur_rtde's watchdog, and the control script stops the program
+    # (docs/field-experience.md, "A supervisor's SIGTERM, a crash, a power cut").
     # A 0.25 s window (the production default is 0.2 s, which trips spuriously when this shared
     # machine deschedules the simulator).
     window_s = 0.25

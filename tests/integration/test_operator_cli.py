@@ -179,7 +179,8 @@ def test_status_without_an_answer_exits_4_in_one_line(
 
 
 def test_status_of_polyscope_x_reads_rtde_alone(sim_controller: SimFactory, tmp_path: Path) -> None:
-    # Field note 22: PolyScope X has no dashboard server; remote control does not apply there.
+    # docs/field-experience.md, "PolyScope X": it has no dashboard server; remote control does
+    # not apply there.
     ctl = sim_controller(profile="polyscope-x", tcp_offset=TCP_OFFSET, instant=True)
     status, report = cli_json("status", "--config", str(write_config(tmp_path, ctl.host)))
     assert status == 3, report

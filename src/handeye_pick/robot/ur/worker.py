@@ -7,9 +7,10 @@ only the standard library and ur_rtde (importing the package would load numpy, s
 half a second per connection), so everything it sends is plain data: dicts, lists, numbers.
 
 Why a child process: after a lost connection ur_rtde 1.6.5 reconnects by itself, loops and can
-segfault the process (ur_rtde_protocol.md section 9). Here that can only kill this child; the
-parent sees a dead pipe, reports a RobotConnectionError and stops the robot through a fresh
-dashboard connection. The child ignores SIGINT so the parent can still send stopL after Ctrl-C.
+segfault the process (docs/ur-rtde.md, "What makes the client throw or hang"). Here that can only
+kill this child; the parent sees a dead pipe, reports a RobotConnectionError and stops the robot
+through a fresh dashboard connection. The child ignores SIGINT so the parent can still send stopL
+after Ctrl-C.
 
 Protocol: the child answers ``("hello", controller_version)`` or ``("failure", Failure fields)``
 after connecting, then one reply per request ``(operation, args)``: ``("ok", result)`` or
@@ -33,7 +34,8 @@ FRESH_SAMPLE_TIMEOUT_S = 0.5
 FIRST_SAMPLE_TIMEOUT_S = 1.0
 """How long a new receive interface may go without data before the connection fails."""
 WATCHDOG_KICKS_PER_WINDOW = 8
-"""ur_rtde's controller-side watchdog (field note 17): the control script stops the program, and
+"""ur_rtde's controller-side watchdog (docs/field-experience.md, "A supervisor's SIGTERM, a crash,
+a power cut"): the control script stops the program, and
 the arm, when this process has not written its command register for WATCHDOG_S seconds. It is
 kicked eight times per window (a kick is one register write, no round trip) for as long as the
 parent's pipe is open, idle or busy, so the program stops about WATCHDOG_S after the parent dies
@@ -138,7 +140,7 @@ class _Session:
         self._dashboard.connect()
         self.controller_version = str(self._dashboard.polyscopeVersion())
         # A refused RTDE start leaves the receive interface constructed but dead, its getters
-        # returning zeros (ur_rtde_protocol.md section 9): refuse to go on with it.
+        # returning zeros (docs/ur-rtde.md, "What makes the client throw or hang"): refuse it.
         if not self._receive.isConnected() or not self._control.isConnected():
             raise RuntimeError(
                 "the controller did not start the RTDE data stream (receive connected: "
@@ -147,7 +149,8 @@ class _Session:
 
     def _wait_for_data(self) -> None:
         """Until the first RTDE sample is in: after a refused start the receive interface comes
-        back without data, its getters returning zeros (ur_rtde_protocol.md section 9)."""
+        back without data, its getters returning zeros (docs/ur-rtde.md, "What makes the client
+        throw or hang")."""
         deadline = time.monotonic() + FIRST_SAMPLE_TIMEOUT_S
         while float(self._receive.getTimestamp()) <= 0.0:
             if time.monotonic() > deadline:
