@@ -1,7 +1,8 @@
-"""Typed errors of handeye-pick.
+"""Typed errors of handeye-pick, the statuses an operation ends in, and the one table between.
 
-One root, one subclass per kind of failure. The CLI maps each kind to one exit status, so the
-class a function raises is part of its contract:
+One root, one subclass per kind of failure. ``ending`` maps each kind to the status an audit
+outcome (and ``pick --json``) records, the status a ``run`` reply carries and the exit status of
+a command, so the class a function raises is part of its contract:
 
 - ``InputError`` (exit 2): a file, a config key or an argument is wrong; nothing was sent.
 - ``SafetyRefusal`` (exit 3): a pre-flight check refused, or the cell is not ready; nothing moved.
@@ -11,6 +12,52 @@ Every message names the operation, what was expected and what was found.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+
+
+class Status(str, Enum):
+    """Every status an audit outcome, a ``run`` reply or a ``--json`` report carries."""
+
+    # an operation that ran to its end
+    PLACED = "placed"
+    PICKED = "picked"
+    MISSED = "missed"  # the gripper closed on nothing, opened, and the arm retreated
+    DRY_RUN = "dry-run"
+    DONE = "done"  # a place or a named-pose move (audit)
+    MOVED = "moved"  # a named-pose move (reply)
+    CAPTURED = "captured"
+    READY = "ready"
+    NOT_READY = "not-ready"
+    BYE = "bye"
+    STOPPED = "stopped"  # collect: the dataset ended early, the pairs so far kept
+    # an operation that did not
+    BAD_INPUT = "bad-input"
+    BAD_REQUEST = "bad-request"
+    REFUSED = "refused"
+    NO_CANDIDATE = "no-candidate"
+    HALTED = "halted"
+    DROPPED = "dropped"
+    FAULT = "fault"
+    INTERRUPTED = "interrupted"
+    ERROR = "error"  # a defect, not a failure this package knows
+
+    def __str__(self) -> str:
+        return self.value
+
+
+class ExitCode(IntEnum):
+    """The exit statuses of every command."""
+
+    OK = 0
+    INTERNAL = 1  # a defect in handeye-pick
+    BAD_INPUT = 2
+    REFUSED = 3  # refused by a check, or the cell not ready; nothing moved
+    ROBOT_FAULT = 4
+    MISSED = 5  # pick: the gripper closed on nothing, opened, and the arm retreated
+    INTERRUPTED = 130  # Ctrl-C, after stopL
+    TERMINATED = 143  # SIGTERM, handled exactly like Ctrl-C
 
 
 class HandEyePickError(Exception):
@@ -84,3 +131,39 @@ class PartDropped(RobotError):
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
     the outcome), then exit status 143 instead of 130."""
+
+
+class PlanRefused(SafetyRefusal):
+    """No candidate of a pick passed every pre-flight check; nothing moved (a reply says
+    ``no-candidate``)."""
+
+
+@dataclass(frozen=True)
+class Ending:
+    """How an operation that raised ends: its outcome status (audit record, ``pick --json``),
+    its reply status (``run``) and the exit status of a command."""
+
+    outcome: Status
+    reply: Status
+    exit_code: ExitCode
+
+
+_ENDINGS: tuple[tuple[type[BaseException], Ending], ...] = (  # the first matching row wins
+    (Terminated, Ending(Status.INTERRUPTED, Status.INTERRUPTED, ExitCode.TERMINATED)),
+    (KeyboardInterrupt, Ending(Status.INTERRUPTED, Status.INTERRUPTED, ExitCode.INTERRUPTED)),
+    (CellHalted, Ending(Status.HALTED, Status.HALTED, ExitCode.REFUSED)),
+    (PlanRefused, Ending(Status.REFUSED, Status.NO_CANDIDATE, ExitCode.REFUSED)),
+    (SafetyRefusal, Ending(Status.REFUSED, Status.REFUSED, ExitCode.REFUSED)),
+    (PartDropped, Ending(Status.DROPPED, Status.DROPPED, ExitCode.ROBOT_FAULT)),
+    (RobotError, Ending(Status.FAULT, Status.FAULT, ExitCode.ROBOT_FAULT)),
+    (InputError, Ending(Status.BAD_INPUT, Status.BAD_REQUEST, ExitCode.BAD_INPUT)),
+)
+_DEFECT = Ending(Status.ERROR, Status.ERROR, ExitCode.INTERNAL)
+
+
+def ending(exc: BaseException) -> Ending:
+    """The one table from an exception to its statuses and exit code."""
+    for kind, end in _ENDINGS:
+        if isinstance(exc, kind):
+            return end
+    return _DEFECT

@@ -32,12 +32,12 @@ from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.cell.session import Capture, Cell, NoFeasibleCandidate, PickResult
 from handeye_pick.detection import Detection, detection_from_data
 from handeye_pick.errors import (
-    CellHalted,
     InputError,
-    PartDropped,
     RobotError,
     SafetyRefusal,
+    Status,
     Terminated,
+    ending,
 )
 from handeye_pick.geometry import ur_pose_list
 from handeye_pick.safety import PreflightRefusal
@@ -98,7 +98,7 @@ class Runner:
             self._check_token(data)
             request = _validate(data, request_id)
         except BadRequest as exc:
-            return {"id": request_id, "ok": False, "status": "bad-request", "error": str(exc)}
+            return {"id": request_id, "ok": False, "status": Status.BAD_REQUEST, "error": str(exc)}
         try:
             return {"id": request.id, **self._dispatch(request)}
         except (KeyboardInterrupt, SystemExit):
@@ -117,7 +117,7 @@ class Runner:
         return {
             "id": request_id,
             "ok": False,
-            "status": "interrupted",
+            "status": ending(exc).reply,
             "error": f"{signal_name}: the arm was stopped and the outcome written; exiting",
         }
 
@@ -152,12 +152,12 @@ class Runner:
             return pick_reply(result)
         if request.op == "place":
             T_place = cell.place(request_id=rid)
-            return {"ok": True, "status": "placed", "place_pose": ur_pose_list(T_place)}
+            return {"ok": True, "status": Status.PLACED, "place_pose": ur_pose_list(T_place)}
         if request.op == "move" and request.pose is not None:  # _validate requires the pose
             reached = cell.move_to(request.pose, request_id=rid)
             return {
                 "ok": True,
-                "status": "moved",
+                "status": Status.MOVED,
                 "pose": request.pose,
                 "tcp_pose": ur_pose_list(reached),
             }
@@ -165,39 +165,31 @@ class Runner:
             return status_reply(cell)
         if request.op == "resume":
             cell.resume(request_id=rid)
-            return {"ok": True, "status": "ready"}
+            return {"ok": True, "status": Status.READY}
         if request.op == "quit":
             self.quit = True
-            return {"ok": True, "status": "bye"}
+            return {"ok": True, "status": Status.BYE}
         raise BadRequest(f"{request.op}: incomplete request")
 
 
 def failure_fields(exc: BaseException) -> dict[str, object]:
-    """``status`` and ``error`` of a reply for a refused or failed request."""
-    fields: dict[str, object] = {"error": str(exc), "error_type": type(exc).__name__}
+    """``status`` (``errors.ending``) and ``error`` of a reply for a refused or failed request."""
+    fields: dict[str, object] = {
+        "error": str(exc),
+        "error_type": type(exc).__name__,
+        "status": ending(exc).reply,
+    }
     if isinstance(exc, NoFeasibleCandidate):
-        fields["status"] = "no-candidate"
         fields["refused"] = [{"candidate": r.candidate, "reasons": r.reasons} for r in exc.refusals]
     elif isinstance(exc, PreflightRefusal):
-        fields["status"] = "no-candidate"
         failed = [f"{r.target} {r.name}: {r.detail}" for r in exc.results if not r.passed]
         fields["refused"] = [{"candidate": 0, "reasons": failed}]
-    elif isinstance(exc, CellHalted):
-        fields["status"] = "halted"
-    elif isinstance(exc, PartDropped):
-        fields["status"] = "dropped"
-    elif isinstance(exc, SafetyRefusal):
-        fields["status"] = "refused"
-    elif isinstance(exc, RobotError):
-        fields["status"] = "fault"
-    else:
-        fields["status"] = "bad-request"
     return fields
 
 
 def pick_reply(result: PickResult) -> dict[str, object]:
     reply: dict[str, object] = {
-        "ok": result.status != "missed",
+        "ok": result.status is not Status.MISSED,
         "status": result.status,
         "candidate": result.candidate,
         "capture_id": result.capture.capture_id,
@@ -214,7 +206,7 @@ def pick_reply(result: PickResult) -> dict[str, object]:
             "index": result.place_index,
             "pose": ur_pose_list(result.T_base_tcp_place),
         }
-    if result.status == "missed":
+    if result.status is Status.MISSED:
         reply["error"] = MISSED_MESSAGE
     return reply
 
@@ -223,7 +215,7 @@ def status_reply(cell: Cell) -> dict[str, object]:
     state = cell.status()
     reply: dict[str, object] = {
         "ok": True,
-        "status": "ready" if state.ready else "not-ready",
+        "status": Status.READY if state.ready else Status.NOT_READY,
         "ready": state.ready,
         "halted": state.halted is not None,
         "halted_reason": state.halted,
@@ -239,7 +231,7 @@ def status_reply(cell: Cell) -> dict[str, object]:
 def _capture_reply(capture: Capture) -> dict[str, object]:
     return {
         "ok": True,
-        "status": "captured",
+        "status": Status.CAPTURED,
         "capture_id": capture.capture_id,
         "cycle": capture.cycle,
         "flange_pose_ur": (

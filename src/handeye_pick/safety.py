@@ -17,7 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
-from handeye_pick.errors import SafetyRefusal
+from handeye_pick.errors import PlanRefused, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
 from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
@@ -46,7 +46,7 @@ class CheckResult:
     detail: str  # what was measured against what limit
 
 
-class PreflightRefusal(SafetyRefusal):
+class PreflightRefusal(PlanRefused):
     """At least one pre-flight check failed; nothing moved. ``results`` holds every check."""
 
     def __init__(self, results: list[CheckResult]) -> None:

@@ -29,12 +29,11 @@ from handeye_pick.cell.payload import held_payload
 from handeye_pick.config.schema import CellConfig, Payload, PlaceConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
-    CellHalted,
     PartDropped,
-    RobotError,
     RobotFault,
     SafetyRefusal,
     Terminated,
+    ending,
 )
 from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
 from handeye_pick.gripper.port import GraspState, Gripper
@@ -460,13 +459,12 @@ def reached_errors(steps: Sequence[Step], reached: dict[str, Transform]) -> dict
 
 
 def failure_fields(exc: BaseException) -> dict[str, object]:
-    """``status`` and ``error`` of an outcome record for the exception that ended a sequence."""
+    """``status`` (``errors.ending``) and ``error`` of an outcome record for the exception that
+    ended a sequence."""
+    status = ending(exc).outcome
     if isinstance(exc, KeyboardInterrupt):
         signal_name = "SIGTERM" if isinstance(exc, Terminated) else "SIGINT"
-        return {
-            "status": "interrupted",
-            "error": {"type": type(exc).__name__, "signal": signal_name},
-        }
+        return {"status": status, "error": {"type": type(exc).__name__, "signal": signal_name}}
     error: dict[str, object] = {"type": type(exc).__name__, "message": str(exc)}
     if isinstance(exc, RobotFault):
         error.update(
@@ -474,16 +472,6 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
         )
     if isinstance(exc, PreflightRefusal):
         error["checks"] = [asdict(check) for check in exc.results]
-    if isinstance(exc, CellHalted):
-        status = "halted"
-    elif isinstance(exc, PartDropped):
-        status = "dropped"
-    elif isinstance(exc, SafetyRefusal):
-        status = "refused"
-    elif isinstance(exc, RobotError):
-        status = "fault"
-    else:
-        status = "error"
     return {"status": status, "error": error}
 
 

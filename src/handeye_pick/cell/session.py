@@ -68,10 +68,12 @@ from handeye_pick.errors import (
     CellHalted,
     ConfigError,
     InputError,
+    PlanRefused,
     RobotConnectionError,
     RobotError,
     RobotFault,
     SafetyRefusal,
+    Status,
 )
 from handeye_pick.geometry import Transform, compose, ur_pose_list
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
@@ -111,7 +113,7 @@ MAX_CAPTURES_KEPT = 64
 ArmFactory = Callable[[CellConfig], RobotArm]
 
 
-class NoFeasibleCandidate(SafetyRefusal):
+class NoFeasibleCandidate(PlanRefused):
     """No candidate passed every pre-flight check; nothing moved. ``refusals`` says why each."""
 
     def __init__(self, refusals: list[CandidateRefusal]) -> None:
@@ -152,7 +154,7 @@ class Capture:
 class PickResult:
     """A pick that ran to its end (or a dry run)."""
 
-    status: str  # placed, picked, missed (the gripper closed on nothing), dry-run
+    status: Status  # placed, picked, missed (the gripper closed on nothing), dry-run
     candidate: int  # index of the picked candidate
     plan: PickPlan
     checks: list[CheckResult]
@@ -677,21 +679,21 @@ class Cell:
                 }
             )
             reached: dict[str, Transform] = {}
-            status = "dry-run"
+            status = Status.DRY_RUN
             if not dry_run:
                 done = execute(
                     self.config, steps, self.arm, self.progress, outcome, before_move, self._gripper
                 )
                 reached = done.reached
                 if done.grasp is GraspState.MISSED:
-                    status, place_index = "missed", None
+                    status, place_index = Status.MISSED, None
                 elif place_index is not None:
                     self._place_index += 1
-                    status = "placed"
+                    status = Status.PLACED
                 else:
-                    status = "picked"
+                    status = Status.PICKED
                 # A part picked and not placed is carried until a place releases it.
-                self._holding = done.grasp if status == "picked" else None
+                self._holding = done.grasp if status is Status.PICKED else None
             errors = reached_errors(steps, reached)
             outcome.update(
                 status=status,
@@ -858,7 +860,7 @@ class Cell:
                 gripper=self._gripper,
                 holding=self._holding,  # a carried part is watched on every move
             ).reached
-            outcome["status"] = "done"
+            outcome["status"] = Status.DONE
         return reached
 
     # --- checks ------------------------------------------------------------------------------

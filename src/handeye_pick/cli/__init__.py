@@ -27,23 +27,8 @@ import sys
 from collections.abc import Collection, Sequence
 from types import FrameType
 
-from handeye_pick.errors import (
-    HandEyePickError,
-    InputError,
-    RobotError,
-    SafetyRefusal,
-    Terminated,
-)
+from handeye_pick.errors import ExitCode, HandEyePickError, InputError, Terminated, ending
 from handeye_pick.progress import add_output_args, configure_logging
-
-EXIT_OK = 0
-EXIT_INTERNAL = 1
-EXIT_BAD_INPUT = 2
-EXIT_REFUSED = 3
-EXIT_ROBOT_FAULT = 4
-EXIT_MISSED = 5  # pick: the gripper closed on nothing, opened, and the arm retreated
-EXIT_INTERRUPTED = 130
-EXIT_TERMINATED = 143
 
 COMMANDS: dict[str, tuple[str, str]] = {
     # command: (module in handeye_pick.cli that registers it, summary for the top-level --help)
@@ -129,15 +114,6 @@ def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
     return parser_with({COMMANDS[command][0]})
 
 
-def exit_status(exc: HandEyePickError) -> int:
-    """The exit status for a typed error (2 input, 3 refused, 4 robot)."""
-    if isinstance(exc, SafetyRefusal):
-        return EXIT_REFUSED
-    if isinstance(exc, RobotError):
-        return EXIT_ROBOT_FAULT
-    return EXIT_BAD_INPUT
-
-
 def _terminate(signum: int, frame: FrameType | None) -> None:
     raise Terminated
 
@@ -156,13 +132,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         return status
     except HandEyePickError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return exit_status(exc)
-    except Terminated:
-        print("terminated (SIGTERM): the arm was stopped", file=sys.stderr)
-        return EXIT_TERMINATED
-    except KeyboardInterrupt:
-        print("interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return ending(exc).exit_code
+    except KeyboardInterrupt as exc:
+        terminated = isinstance(exc, Terminated)
+        print(
+            "terminated (SIGTERM): the arm was stopped" if terminated else "interrupted",
+            file=sys.stderr,
+        )
+        return ending(exc).exit_code
     except Exception as exc:
         # A bug, not a known failure: a defined status and one line, the traceback in the log
         # (stderr shows it too unless --quiet). Robot code has already stopped the arm.
@@ -172,4 +149,4 @@ def main(argv: Sequence[str] | None = None) -> int:
             "report it with the --log-file output)",
             file=sys.stderr,
         )
-        return EXIT_INTERNAL
+        return ExitCode.INTERNAL

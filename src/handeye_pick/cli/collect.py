@@ -26,7 +26,7 @@ from numpy.typing import NDArray
 from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.cli.cell import add_config_arg, print_json, progress_from_args
 from handeye_pick.cli.common import UNITS, accept_negative_exponents
-from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal
+from handeye_pick.errors import HandEyePickError, InputError, SafetyRefusal, Status
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list, ur_pose_to_matrix
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -337,7 +337,7 @@ def _report_collection(
             "mode": mode.value,
             "pairs": collection.pairs,
             "skipped": [{"pose": s.pose, "reason": s.reason} for s in collection.skipped],
-            "status": "done" if error is None else "stopped",
+            "status": Status.DONE if error is None else Status.STOPPED,
         }
         if error is not None:
             report["error"] = str(error) or type(error).__name__

@@ -18,7 +18,6 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from handeye_pick.cli import EXIT_REFUSED
 from handeye_pick.cli.cell import (
     add_config_arg,
     add_detection_arg,
@@ -33,7 +32,7 @@ from handeye_pick.cli.common import (
     camera_point_mm_from_args,
     robot_pose_from_args,
 )
-from handeye_pick.errors import HandEyePickError, InputError
+from handeye_pick.errors import ExitCode, HandEyePickError, InputError, Status
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -183,7 +182,7 @@ def _mm_to_m(values_mm: tuple[float, float, float]) -> tuple[float, float, float
 
 
 def run_status(args: argparse.Namespace) -> int:
-    """Print the cell's state; exit 0 when ready to pick, 3 (EXIT_REFUSED) with the reasons.
+    """Print the cell's state; exit 0 when ready to pick, 3 (ExitCode.REFUSED) with the reasons.
 
     Reads from outside (``Cell.inspect``): no program is started, so the controller is left as
     it was found, and no audit file is opened, so it works beside a running session."""
@@ -195,7 +194,7 @@ def run_status(args: argparse.Namespace) -> int:
     state = cell.inspect()
     report.update(_status_fields(cell, state))
     _print_status(report, state.problems, args.json)
-    return 0 if state.ready else EXIT_REFUSED
+    return ExitCode.OK if state.ready else ExitCode.REFUSED
 
 
 def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
@@ -355,7 +354,7 @@ def run_touch_test(args: argparse.Namespace) -> int:
     report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
     standoff_error_mm = result.errors["grasp"].position_mm
     if args.json:
-        report["status"] = "done"
+        report["status"] = Status.DONE
         report["standoff_error_mm"] = standoff_error_mm
         print_json(report)
     else:

@@ -13,7 +13,6 @@ import argparse
 from dataclasses import asdict
 from typing import TYPE_CHECKING
 
-from handeye_pick.cli import EXIT_MISSED
 from handeye_pick.cli.cell import (
     add_capture_pose_args,
     add_config_arg,
@@ -25,7 +24,7 @@ from handeye_pick.cli.cell import (
     progress_from_args,
 )
 from handeye_pick.cli.common import add_camera_point_args
-from handeye_pick.errors import HandEyePickError, RobotError, SafetyRefusal
+from handeye_pick.errors import ExitCode, HandEyePickError, Status, ending
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -109,21 +108,21 @@ def run(args: argparse.Namespace) -> int:
         print_json(report)
     else:
         _print_summary(result, str(config.audit.file))
-    return EXIT_MISSED if result.status == "missed" else 0
+    return ExitCode.MISSED if result.status is Status.MISSED else ExitCode.OK
 
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:
+    """The report's ``status`` (the pick's outcome status, ``errors.ending``) and ``error``."""
     from handeye_pick.cell.session import PreflightRefusal
 
+    status = ending(exc).outcome
     if isinstance(exc, KeyboardInterrupt):
-        return {"status": "interrupted", "error": f"interrupted ({type(exc).__name__}): stopL sent"}
-    fields: dict[str, object] = {"error": str(exc), "error_type": type(exc).__name__}
-    if isinstance(exc, SafetyRefusal):
-        fields["status"] = "refused"
-    elif isinstance(exc, RobotError):
-        fields["status"] = "fault"
-    else:
-        fields["status"] = "bad-input"
+        return {"status": status, "error": f"interrupted ({type(exc).__name__}): stopL sent"}
+    fields: dict[str, object] = {
+        "error": str(exc),
+        "error_type": type(exc).__name__,
+        "status": status,
+    }
     if isinstance(exc, PreflightRefusal):
         fields["checks"] = [asdict(check) for check in exc.results]
     return fields
