@@ -18,11 +18,11 @@ __version__ = "0.1.0"
 # TYPE_CHECKING.
 _EXPORTS = {
     "Cell": "handeye_pick.cell.session",
-    "Capture": "handeye_pick.cell.session",
-    "CellStatus": "handeye_pick.cell.session",
+    "Capture": "handeye_pick.cell.captures",
+    "CellStatus": "handeye_pick.cell.status",
     "PickResult": "handeye_pick.cell.session",
-    "NoFeasibleCandidate": "handeye_pick.cell.session",
-    "PreflightRefusal": "handeye_pick.cell.session",
+    "NoFeasibleCandidate": "handeye_pick.cell.plan",
+    "PreflightRefusal": "handeye_pick.safety",
     "load_config": "handeye_pick.config.schema",
     "load_detection": "handeye_pick.detection",
     "detection_from_point_mm": "handeye_pick.detection",
@@ -60,14 +60,10 @@ __all__ = [  # the same names as _EXPORTS (tests/unit/test_light_imports.py chec
 ]
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ imports these
-    from handeye_pick.cell.session import (
-        Capture,
-        Cell,
-        CellStatus,
-        NoFeasibleCandidate,
-        PickResult,
-        PreflightRefusal,
-    )
+    from handeye_pick.cell.captures import Capture
+    from handeye_pick.cell.plan import NoFeasibleCandidate
+    from handeye_pick.cell.session import Cell, PickResult
+    from handeye_pick.cell.status import CellStatus
     from handeye_pick.cloud.transform import transform_points
     from handeye_pick.config.schema import load_config
     from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
@@ -80,6 +76,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ im
         RobotFault,
         SafetyRefusal,
     )
+    from handeye_pick.safety import PreflightRefusal
 
 
 def __getattr__(name: str) -> Any:

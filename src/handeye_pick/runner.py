@@ -28,8 +28,9 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from handeye_pick.calibration.files import HandEyeMode
-from handeye_pick.cell.session import Capture, Cell, NoFeasibleCandidate, PickResult
+from handeye_pick.cell.captures import Capture
+from handeye_pick.cell.plan import NoFeasibleCandidate
+from handeye_pick.cell.session import Cell, PickResult
 from handeye_pick.detection import Detection, detection_from_data
 from handeye_pick.errors import (
     InputError,
@@ -134,17 +135,9 @@ class Runner:
         if request.op == "capture":
             return _capture_reply(cell.capture(request.pose, request_id=rid))
         if request.op == "pick":
-            capture = None
-            if request.capture_id is not None:
-                capture = cell.find_capture(request.capture_id)
-            elif cell.calibration.mode is HandEyeMode.EYE_IN_HAND:
-                raise BadRequest(
-                    "pick: an eye-in-hand pick needs the capture_id of the capture its image "
-                    "was taken at (send a capture request first)"
-                )
             result = cell.pick(
                 request.candidates,
-                capture,
+                cell.request_capture(request.capture_id),
                 place=request.place,
                 dry_run=request.dry_run,
                 request_id=rid,

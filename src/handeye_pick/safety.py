@@ -1,8 +1,13 @@
-"""Pre-flight safety: pure checks, and ``preflight``, the one place that runs them before motion.
+"""Every check that can refuse a motion, and ``preflight``, the one place that runs the target
+checks before a sequence moves.
 
-Nothing here moves the robot. ``preflight`` runs every check for every target and refuses with a
-``PreflightRefusal`` listing all failures at once, so an operator fixes them in one go.
-``check_motion_command`` guards the speed and acceleration of each single motion command.
+Nothing here moves the robot. The cell's sequence runner calls, in this order: ``ensure_not_halted``
+(a fault halted the cell), ``ensure_ready`` (the controller's modes, the session's program, the
+active TCP offset against the config), ``chain_checks`` (the hand-eye chain is plausible) and
+``preflight`` (every target: workspace, tilt, motion caps, the controller's safety limits and
+IK), which refuses with a ``PreflightRefusal`` listing all failures at once, so an operator fixes
+them in one go. ``check_motion_command`` and ``check_joint_command`` guard the speed of each
+single motion command right before it is sent.
 
 Frames and units: targets are ``T_base_tcp`` (m); the workspace box is in mm in the base frame;
 tilt is the angle between the tool z axis and straight down (base -z), in degrees.
@@ -16,12 +21,15 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
-from handeye_pick.errors import PlanRefused, SafetyRefusal
+from handeye_pick.calibration.files import HandEyeCalibration, HandEyeMode
+from handeye_pick.calibration.plausibility import chain_problems
+from handeye_pick.config.schema import CellConfig, MotionConfig, RobotConfig, WorkspaceConfig
+from handeye_pick.errors import CellHalted, PlanRefused, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
 from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
     MAX_GRASP_SPEED_MPS,
+    MAX_JOINT_SPEED_RPS,
     MAX_SPEED_MPS,
     UR_MAX_SPEED_MPS,
     stop_decel_problem,
@@ -94,6 +102,15 @@ def check_motion_command(
     problems = motion_problems(speed_mps, accel_mps2, max_speed_mps)
     if problems:
         raise SafetyRefusal(f"motion command refused, nothing sent: {'; '.join(problems)}")
+
+
+def check_joint_command(speed_rps: float) -> None:
+    """Raise ``SafetyRefusal`` before sending a moveJ whose joint speed (rad/s) is out of caps."""
+    if not 0.0 < speed_rps <= MAX_JOINT_SPEED_RPS:
+        raise SafetyRefusal(
+            f"motion command refused, nothing sent: joint speed {speed_rps:g} rad/s outside "
+            f"(0, {MAX_JOINT_SPEED_RPS:g}] rad/s"
+        )
 
 
 def _motion_checks(speeds: MotionConfig) -> list[CheckResult]:
@@ -366,4 +383,67 @@ def tcp_offset_problems(
         f"{offset_mm:.1f} mm and {offset_deg:.2f} deg (tolerance {tolerance_mm:g} mm, "
         f"{tolerance_deg:g} deg): select the right TCP on the pendant (Installation > "
         "General > TCP) or correct robot.tcp_offset in the config"
+    ]
+
+
+def ensure_not_halted(host: str, halted: str | None) -> None:
+    """Refuse every motion of a cell a fault halted (``halted`` says why) until it resumes."""
+    if halted is not None:
+        raise CellHalted(
+            f"cell {host} is halted after a fault ({halted}): clear the cause on the pendant, "
+            "then resume; nothing moved"
+        )
+
+
+def readiness_problems(
+    status: RobotStatus, T_flange_tcp: Transform, robot: RobotConfig
+) -> list[str]:
+    """``cell_readiness_problems`` with the configured TCP offset (m) and its tolerances."""
+    return cell_readiness_problems(
+        status,
+        T_flange_tcp,
+        robot.T_flange_tcp,
+        tolerance_mm=robot.tcp_offset_tolerance_mm,
+        tolerance_deg=robot.tcp_offset_tolerance_deg,
+    )
+
+
+def ensure_ready(status: RobotStatus, T_flange_tcp: Transform, robot: RobotConfig) -> None:
+    """Refuse a sequence on a cell that is not ready, every problem listed (nothing moved)."""
+    problems = readiness_problems(status, T_flange_tcp, robot)
+    if problems:
+        raise SafetyRefusal(f"cell on {robot.host} is not ready: " + "; ".join(problems))
+
+
+def chain_checks(
+    config: CellConfig,
+    calibration: HandEyeCalibration,
+    T_cam_obj: Transform,
+    T_base_flange: Transform,
+) -> list[CheckResult]:
+    """The hand-eye chain's plausibility (``plausibility.chain_problems``: an inverted or
+    swapped calibration, an object out of the camera's range) as pre-flight results, target
+    ``chain``; a check the config acknowledges passes and says so. ``T_base_flange`` (m) is the
+    flange at acquisition, used for eye-in-hand only."""
+    eye_in_hand = calibration.mode is HandEyeMode.EYE_IN_HAND
+    problems = chain_problems(
+        calibration,
+        T_base_flange if eye_in_hand else None,
+        T_cam_obj,
+        config.workspace,
+        config.hand_eye.acknowledge,
+        measured=config.hand_eye.camera_position,
+    )
+    acknowledge = calibration.settings.acknowledge
+    return [
+        CheckResult(
+            f"plausible {problem.check}",
+            "chain",
+            problem.acknowledged,
+            f"{problem.message} (acknowledged in {acknowledge})"
+            if problem.acknowledged
+            else f"{problem.message} (an unusual mount acknowledges it: {acknowledge}: "
+            f"[{problem.check}])",
+        )
+        for problem in problems
     ]

@@ -6,7 +6,7 @@ import json
 
 import pytest
 
-from handeye_pick.cell.session import NoFeasibleCandidate
+from handeye_pick.cell.plan import NoFeasibleCandidate
 from handeye_pick.errors import (
     CalibrationError,
     CellHalted,

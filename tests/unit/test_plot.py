@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
-from handeye_pick.cell.sequence import STEPS, chain_plan
+from handeye_pick.cell.plan import STEPS, chain_plan
 from handeye_pick.config.schema import load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError

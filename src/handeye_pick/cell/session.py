@@ -16,23 +16,21 @@ runs the cell's operations for as long as the session lasts::
 Frames and units: poses are float64 4x4 transforms in metres in the robot base frame
 (``T_base_flange``, ``T_base_tcp``); detections are in the camera frame (``T_cam_obj``).
 
-Safety: every motion (pick, place, named pose) goes through ``safety.preflight`` and is
-audited: its plan on disk before the first motion command, its outcome after, whatever the
-ending. A robot fault stops the arm (the adapter does that) and halts the cell: every motion
-is then refused with ``CellHalted`` until ``resume()``, after the operator cleared the cause on
-the pendant. Nothing is ever unlocked, reconnected or re-sent by itself.
+Safety: every motion (pick, place, named pose, touch test) runs through one skeleton,
+``Cell._run``: halt guard, readiness, pre-flight (``safety``), its plan on disk before the first
+motion command, the moves, its outcome after, whatever the ending. A robot fault stops the arm
+(the adapter does that) and halts the cell: every motion is then refused with ``CellHalted``
+until ``resume()``, after the operator cleared the cause on the pendant. Nothing is ever
+unlocked, reconnected or re-sent by itself.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 import time
-from collections import OrderedDict
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass, field, replace
-from datetime import datetime, timezone
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from types import TracebackType
 
@@ -43,111 +41,59 @@ from handeye_pick.calibration.files import (
     HandEyeMode,
     load_hand_eye,
 )
-from handeye_pick.calibration.plausibility import chain_problems
-from handeye_pick.cell.sequence import (
+from handeye_pick.cell.captures import Capture, CaptureBook
+from handeye_pick.cell.plan import (
+    CandidateRefusal,
+    Chosen,
     JointMove,
     Move,
     PickPlan,
     Step,
     StepError,
-    append_failure,
-    audited_outcome,
     chain_plan,
     check_steps,
+    choose,
     describe_plan,
-    execute,
     pick_steps,
     place_steps,
-    plan_record,
     reached_errors,
-    steps_record,
+)
+from handeye_pick.cell.records import append_failure, audited_outcome, plan_record, steps_record
+from handeye_pick.cell.sequence import Executed, execute
+from handeye_pick.cell.status import (
+    CellStatus,
+    flange_from_outside,
+    halted_without_link,
+    outside_status,
+    session_status,
+    unread,
 )
 from handeye_pick.config.schema import CellConfig, GripperConfig, NamedPose, load_config
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
-    CellHalted,
     ConfigError,
     InputError,
-    PlanRefused,
     RobotConnectionError,
     RobotError,
-    RobotFault,
     SafetyRefusal,
     Status,
 )
-from handeye_pick.geometry import Transform, compose, ur_pose_list
+from handeye_pick.geometry import Transform
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import RobotArm, RobotStatus
-from handeye_pick.robot.ur.readout import read_controller
-from handeye_pick.safety import (  # PreflightRefusal: part of this module's API
+from handeye_pick.robot.port import RobotArm
+from handeye_pick.safety import (
     CheckResult,
     ControllerVerdicts,
     PreflightRefusal,
-    cell_readiness_problems,
-    controller_problems,
-    tcp_offset_difference,
-    tcp_offset_problems,
+    ensure_not_halted,
+    ensure_ready,
     workspace_problem,
 )
 
-__all__ = [
-    "CandidateRefusal",
-    "Capture",
-    "Cell",
-    "CellStatus",
-    "NoFeasibleCandidate",
-    "PickPlan",
-    "PickResult",
-    "PreflightRefusal",
-    "StepError",
-    "calibration_from_config",
-    "connect_ur_rtde",
-]
-
 log = logging.getLogger(__name__)
 
-MAX_CAPTURES_KEPT = 64
-"""Latched captures a session remembers (oldest forgotten first): a pick names a recent one."""
-
 ArmFactory = Callable[[CellConfig], RobotArm]
-
-
-class NoFeasibleCandidate(PlanRefused):
-    """No candidate passed every pre-flight check; nothing moved. ``refusals`` says why each."""
-
-    def __init__(self, refusals: list[CandidateRefusal]) -> None:
-        reasons = "; ".join(
-            f"candidate {r.candidate} ({r.source}): {'; '.join(r.reasons)}" for r in refusals
-        )
-        super().__init__(f"no candidate can be picked, nothing moved: {reasons}")
-        self.refusals = refusals
-
-
-@dataclass(frozen=True)
-class CandidateRefusal:
-    """Why one candidate detection was not picked."""
-
-    candidate: int  # its index in the request
-    source: str  # the detection's source
-    reasons: list[str]
-    checks: list[CheckResult] = field(default_factory=list)  # every pre-flight check, if run
-
-
-@dataclass(frozen=True)
-class Capture:
-    """A latched capture: the flange pose at image acquisition, carried with its detections.
-
-    ``T_base_flange`` (m) is None for eye-to-hand (the camera does not move with the arm).
-    ``source`` says where the pose came from: ``latched`` (read steady at capture), ``live``
-    (read steady right before a one-shot pick), or a file/flag name.
-    """
-
-    capture_id: str
-    T_base_flange: Transform | None
-    source: str
-    timestamp: datetime
-    cycle: int
 
 
 @dataclass(frozen=True)
@@ -170,21 +116,30 @@ class PickResult:
 
 
 @dataclass(frozen=True)
-class CellStatus:
-    """What the cell looks like right now, and whether it can pick."""
+class TouchTest:
+    """The pick's sequence run as a touch test: to ``standoff_m`` above the point and back,
+    switching no gripper and placing nothing; ``before_move`` sees each move's name first."""
 
-    ready: bool
-    problems: list[str]
-    halted: str | None  # why the cell is halted, or None
-    robot: RobotStatus | None  # None when the link is gone
-    T_flange_tcp: Transform | None  # active TCP offset (m)
-    tcp_offset_difference: tuple[float, float] | None  # (mm, deg) controller vs config
-    T_base_flange: Transform | None
-    T_base_tcp: Transform | None
-    T_base_cam: Transform | None
-    tcp_outside_workspace: str | None
-    program_state: str | None = None  # the dashboard's programState (``inspect`` only)
-    loaded_program: str | None = None  # the dashboard's loaded program (``inspect`` only)
+    standoff_m: float
+    before_move: Callable[[str], None] | None = None
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A sequence ready to run: its steps, the checks they all passed, and the fields of its
+    plan record beyond the context, the targets and the checks."""
+
+    steps: list[Step]
+    checks: list[CheckResult]
+    record: dict[str, object]
+
+
+Prepare = Callable[[Transform, dict[str, object], dict[str, object]], Planned]
+"""Plans and checks a sequence, given the active TCP offset ``T_flange_tcp`` (m), the context
+of its records and its outcome record (both may gain fields: the capture, refused candidates)."""
+
+Finish = Callable[[Executed | None], dict[str, object]]
+"""The outcome's ``status`` and own fields once the steps ran (None: a dry run)."""
 
 
 def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
@@ -230,8 +185,7 @@ class Cell:
         self._arm: RobotArm | None = None
         self._gripper: Gripper | None = None
         self._halted: str | None = None
-        self._captures: OrderedDict[str, Capture] = OrderedDict()
-        self._capture_numbers = itertools.count(1)
+        self._captures = CaptureBook()
         self._cycle = 0
         self._place_index = 0
         self._holding: GraspState | None = None  # a part picked and not yet placed
@@ -342,110 +296,17 @@ class Cell:
         (halted included). Reads only; works while halted. A cell halted by a lost link has no
         robot session left: it reads the controller from outside (``inspect``), so the operator
         still sees what the pendant would show."""
-        if self._arm is None:
-            if self._halted is None:
-                return CellStatus(False, ["not connected"], None, *([None] * 7))
-            try:
-                return self.inspect()
-            except RobotConnectionError as exc:
-                problems = [self._halted_problem(), f"the controller does not answer ({exc})"]
-                return CellStatus(False, problems, self._halted, *([None] * 7))
-        robot = self.config.robot
-        state = self._arm.status()
-        try:
-            T_flange_tcp = self._arm.tcp_offset()
-        except RobotFault as exc:  # the control script refuses commands during a stop
-            problems = cell_readiness_problems(
-                state,
-                robot.T_flange_tcp,
-                robot.T_flange_tcp,
-                tolerance_mm=robot.tcp_offset_tolerance_mm,
-                tolerance_deg=robot.tcp_offset_tolerance_deg,
-            )
-            problems.append(f"the controller does not answer getTCPOffset now ({exc})")
-            return self._status(problems, state, None, None)
-        problems = cell_readiness_problems(
-            state,
-            T_flange_tcp,
-            robot.T_flange_tcp,
-            tolerance_mm=robot.tcp_offset_tolerance_mm,
-            tolerance_deg=robot.tcp_offset_tolerance_deg,
-        )
-        return self._status(problems, state, T_flange_tcp, self._arm.flange_pose())
+        if self._arm is not None:
+            return session_status(self._arm, self.config, self.calibration, self._halted)
+        if self._halted is None:
+            return unread(["not connected"], None)
+        return halted_without_link(self.config, self.calibration, self._halted, self.progress)
 
     def inspect(self) -> CellStatus:
-        """The cell's state read from outside, for ``status`` (``robot.readout``): no program is
-        started and nothing is written, so the controller is left exactly as it was found, and
-        it works beside another session that is driving the arm. Needs no ``connect``.
-
-        Ready means a pick could start now: the controller checks a pick makes, the active TCP
-        offset against the config, and no program running on the controller (a pick would stop
-        it: a pendant program, or another session mid-pick).
-        """
-        robot = self.config.robot
-        with self.progress.step(f"reading {robot.host}"):
-            readout = read_controller(robot.host)
-        problems = controller_problems(readout.status)
-        if readout.dashboard_problem is not None:
-            problems.append(
-                f"{readout.dashboard_problem}: handeye-pick needs it to run a pick (ur_rtde 1.6.5 "
-                "starts its control program through it); on PolyScope 5 enable it under "
-                "Settings > Security > Services"
-            )
-        if readout.program_running:
-            problems.append(
-                f"a program is running on the controller ({readout.program_state}): a pick "
-                "would stop it; stop it on the pendant, or let the session that runs it finish"
-            )
-        if readout.T_flange_tcp is None:
-            problems.append(
-                "this controller does not serve tcp_offset over RTDE (PolyScope 3.12.3 and "
-                "5.5.1 on do), so status cannot check the active TCP offset without stopping "
-                "the controller's program: update PolyScope, or check with pick --dry-run"
-            )
-        else:
-            problems.extend(
-                tcp_offset_problems(
-                    readout.T_flange_tcp,
-                    robot.T_flange_tcp,
-                    tolerance_mm=robot.tcp_offset_tolerance_mm,
-                    tolerance_deg=robot.tcp_offset_tolerance_deg,
-                )
-            )
-        state = self._status(problems, readout.status, readout.T_flange_tcp, readout.T_base_flange)
-        return replace(
-            state, program_state=readout.program_state, loaded_program=readout.loaded_program
-        )
-
-    def _halted_problem(self) -> str:
-        return f"halted after a fault ({self._halted}): clear it, then resume"
-
-    def _status(
-        self,
-        problems: list[str],
-        state: RobotStatus,
-        T_flange_tcp: Transform | None,
-        T_base_flange: Transform | None,
-    ) -> CellStatus:
-        if self._halted is not None:
-            problems.insert(0, self._halted_problem())
-        if T_flange_tcp is None or T_base_flange is None:
-            return CellStatus(not problems, problems, self._halted, state, *([None] * 6))
-        T_base_tcp = compose(T_base_flange, T_flange_tcp)
-        return CellStatus(
-            ready=not problems,
-            problems=problems,
-            halted=self._halted,
-            robot=state,
-            T_flange_tcp=T_flange_tcp,
-            tcp_offset_difference=tcp_offset_difference(
-                T_flange_tcp, self.config.robot.T_flange_tcp
-            ),
-            T_base_flange=T_base_flange,
-            T_base_tcp=T_base_tcp,
-            T_base_cam=self.calibration.T_base_cam(T_base_flange),
-            tcp_outside_workspace=workspace_problem(T_base_tcp, self.config.workspace),
-        )
+        """The cell's state read from outside, for ``status`` (``cell.status.outside_status``):
+        no program is started and nothing is written, so the controller is left exactly as it
+        was found. Needs no ``connect``."""
+        return outside_status(self.config, self.calibration, self._halted, self.progress)
 
     def outside_workspace(self, plan: PickPlan) -> dict[str, str]:
         """Pick targets of ``plan`` outside the workspace box, and why (the pure part of the
@@ -466,21 +327,18 @@ class Cell:
             T_flange_tcp = self._arm.tcp_offset()
             T_base_flange = self._arm.flange_pose()
         else:
-            T_flange_tcp, T_base_flange = self._flange_from_outside()
+            T_flange_tcp, T_base_flange = flange_from_outside(self.config, self.progress)
         return chain_plan(self.config, self.calibration, detection, T_base_flange, T_flange_tcp)
 
-    def _flange_from_outside(self) -> tuple[Transform, Transform]:
-        """``(T_flange_tcp, T_base_flange)`` (m) from one RTDE package read from outside."""
-        host = self.config.robot.host
-        with self.progress.step(f"reading {host}"):
-            readout = read_controller(host)
-        if readout.T_flange_tcp is None or readout.T_base_flange is None:
-            raise RobotFault(
-                f"cell {host}: the controller serves no tcp_offset over RTDE (PolyScope older "
-                "than 3.12.3 / 5.5.1), so the flange pose cannot be read without starting a "
-                "program: give the flange pose (--robot-pose or --robot-pose-ur)"
-            )
-        return readout.T_flange_tcp, readout.T_base_flange
+    def check_pose(self, T_base_tcp: Transform) -> list[str]:
+        """Every pre-flight problem a moveL to ``T_base_tcp`` (m) would meet, moving nothing:
+        workspace box, tilt, motion caps, the controller's safety limits and IK. Empty when
+        the move would pass (``poses`` keeps only such targets)."""
+        try:
+            check_steps(self.config, [Move("target", T_base_tcp)], self.arm, self._fixed_verdicts)
+        except PreflightRefusal as refusal:
+            return [f"{r.name}: {r.detail}" for r in refusal.results if not r.passed]
+        return []
 
     # --- capture -----------------------------------------------------------------------------
 
@@ -489,7 +347,7 @@ class Cell:
         if any, wait until the arm is steady and latch ``T_base_flange`` from a fresh RTDE
         sample. Eye-to-hand latches no pose (the camera is fixed); its capture pose is meant to
         take the arm out of the camera's view, and one must be configured or given."""
-        self._require_not_halted()
+        ensure_not_halted(self.config.robot.host, self._halted)
         name = pose if pose is not None else self.config.capture.pose
         eye_in_hand = self.calibration.mode is HandEyeMode.EYE_IN_HAND
         if name is None and not eye_in_hand:
@@ -501,18 +359,19 @@ class Cell:
         if name is not None:
             self.move_to(name, request_id=request_id)
         T_base_flange = self._steady_flange_pose() if eye_in_hand else None
-        capture = self._register(T_base_flange, "latched")
-        self._audit_capture(capture, request_id)
+        capture = self._captures.register(T_base_flange, "latched", self._cycle)
+        self._next_audit().append(capture.record(request_id))
         return capture
 
     def latch_flange_pose(self, *, request_id: str | None = None) -> Transform:
         """``T_base_flange`` (m) where the arm stands, in either mode, moving nothing: waits
         until the arm is steady and reads a fresh RTDE sample; audited as a ``capture``. A
         hand-eye dataset needs the flange pose in both modes (``collect``)."""
-        self._require_not_halted()
+        ensure_not_halted(self.config.robot.host, self._halted)
         self._cycle += 1
         T_base_flange = self._steady_flange_pose()
-        self._audit_capture(self._register(T_base_flange, "latched"), request_id)
+        capture = self._captures.register(T_base_flange, "latched", self._cycle)
+        self._next_audit().append(capture.record(request_id))
         return T_base_flange
 
     def given_capture(self, T_base_flange: Transform, source: str) -> Capture:
@@ -524,30 +383,31 @@ class Cell:
                 "fixed): drop it, or check hand_eye.mode"
             )
         self._cycle += 1
-        return self._register(T_base_flange, source)
+        return self._captures.register(T_base_flange, source, self._cycle)
 
     def find_capture(self, capture_id: str) -> Capture:
         """A capture of this session by id; InputError when unknown or forgotten."""
-        try:
-            return self._captures[capture_id]
-        except KeyError:
-            raise InputError(
-                f"unknown capture_id {capture_id!r}: capture first (this session keeps the "
-                f"last {MAX_CAPTURES_KEPT})"
-            ) from None
+        return self._captures.find(capture_id)
 
-    def _register(self, T_base_flange: Transform | None, source: str) -> Capture:
-        capture = Capture(
-            capture_id=f"c{next(self._capture_numbers)}",
-            T_base_flange=T_base_flange,
-            source=source,
-            timestamp=datetime.now(timezone.utc),
-            cycle=self._cycle,
-        )
-        self._captures[capture.capture_id] = capture
-        while len(self._captures) > MAX_CAPTURES_KEPT:
-            self._captures.popitem(last=False)
-        return capture
+    def request_capture(self, capture_id: str | None) -> Capture | None:
+        """The capture a pick *request* of a running session uses (``run``): the one it names.
+        Eye-to-hand needs none (None). Eye-in-hand must name one (InputError): in a session the
+        arm moves between image and pick, so the flange read at pick time (what ``pick`` does
+        with no capture, for the one-shot command) would not be the flange of the image."""
+        if capture_id is not None:
+            return self.find_capture(capture_id)
+        if self.calibration.mode is HandEyeMode.EYE_IN_HAND:
+            raise InputError(
+                "pick: an eye-in-hand pick needs the capture_id of the capture its image "
+                "was taken at (send a capture request first)"
+            )
+        return None
+
+    def _live_capture(self) -> Capture:
+        if self.calibration.mode is HandEyeMode.EYE_TO_HAND:
+            return self._captures.register(None, "none (eye-to-hand)", self._cycle)
+        T_base_flange = self.arm.steady_flange_pose(self.config.capture.steady_timeout_s)
+        return self._captures.register(T_base_flange, "live", self._cycle)
 
     def _steady_flange_pose(self) -> Transform:
         """Check the TCP offset against the config, then latch the flange pose at rest."""
@@ -555,21 +415,7 @@ class Cell:
         with self._halt_on_fault():
             return self.arm.steady_flange_pose(self.config.capture.steady_timeout_s)
 
-    def _audit_capture(self, capture: Capture, request_id: str | None) -> None:
-        record: dict[str, object] = {
-            "event": "capture",
-            "cycle": capture.cycle,
-            "capture_id": capture.capture_id,
-            "flange_pose_source": capture.source,
-            "flange_pose": (
-                ur_pose_list(capture.T_base_flange) if capture.T_base_flange is not None else None
-            ),
-        }
-        if request_id is not None:
-            record["request_id"] = request_id
-        self._next_audit().append(record)
-
-    # --- pick --------------------------------------------------------------------------------
+    # --- motion ------------------------------------------------------------------------------
 
     def pick(
         self,
@@ -618,11 +464,32 @@ class Cell:
             place=False,
             dry_run=False,
             request_id=None,
-            standoff_m=standoff_m,
-            grip=False,
-            before_move=before_move,
             on_plan=on_plan,
+            touch=TouchTest(standoff_m, before_move),
         )
+
+    def place(self, *, request_id: str | None = None) -> Transform:
+        """Put a held part down at the next place pose (approach, place, release, retreat);
+        returns that place pose ``T_base_tcp``. ConfigError when no place is configured."""
+        place = self.config.place
+        if place is None:
+            raise ConfigError(f"{self.config.path}: no place section: nowhere to put a part")
+        T_place = self._next_place_pose()
+        steps = place_steps(T_place, place, grip=True)
+        self._run_fixed(steps, "place", request_id, {"place_index": self._place_index})
+        self._holding = None
+        self._place_index += 1
+        return T_place
+
+    def move_to(self, pose: str | NamedPose, *, request_id: str | None = None) -> Transform:
+        """Move to a named pose of the config, or to a ``NamedPose`` given directly (moveJ for
+        joints, moveL for a TCP pose), checked and audited like any motion; returns the reached
+        ``T_base_tcp``."""
+        ensure_not_halted(self.config.robot.host, self._halted)
+        target = self.config.pose(pose) if isinstance(pose, str) else pose
+        steps = [_named_move(target)]
+        reached = self._run_fixed(steps, f"move {target.name}", request_id, {"pose": target.name})
+        return reached[target.name]
 
     def _pick(
         self,
@@ -632,269 +499,199 @@ class Cell:
         place: bool,
         dry_run: bool,
         request_id: str | None,
-        standoff_m: float = 0.0,
-        grip: bool = True,
-        before_move: Callable[[str], None] | None = None,
-        on_plan: Callable[[PickPlan], None] | None = None,
+        on_plan: Callable[[PickPlan], None] | None,
+        touch: TouchTest | None = None,
     ) -> PickResult:
+        """A pick (or a touch test) through ``_run``: the capture, the first feasible candidate,
+        its sequence, then the place index and the held part brought up to date."""
         started = time.monotonic()
         if not detections:
             raise InputError("pick: no candidate detections given")
         if capture is None:
             self._cycle += 1
         cycle = capture.cycle if capture is not None else self._cycle
-        audit = self._next_audit()
-        context: dict[str, object] = {"cycle": cycle, "request_id": request_id}
-        outcome: dict[str, object] = {"event": "outcome", **context, "dry_run": dry_run}
-        with self._halt_on_fault(), audited_outcome(audit, outcome):
-            self._require_not_halted()
-            T_flange_tcp = self._ready_tcp_offset()
-            if capture is None:
-                capture = self._live_capture()  # the TCP offset was checked just above
-            outcome["capture_id"] = context["capture_id"] = capture.capture_id
-            T_base_flange = capture.T_base_flange
+        pick = _PickState(capture)
+        grip = touch is None
+
+        def prepare(
+            T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
+        ) -> Planned:
+            pick.capture = pick.capture or self._live_capture()  # after the readiness check
+            outcome["capture_id"] = context["capture_id"] = pick.capture.capture_id
+            T_base_flange = pick.capture.T_base_flange
             if T_base_flange is None:  # eye-to-hand: only the position-only yaw needs the arm
                 T_base_flange = self.arm.flange_pose()
-            chosen, refusals = self._choose(
-                detections, T_base_flange, T_flange_tcp, standoff_m, grip, place, on_plan
-            )
-            index, plan, steps, checks = chosen
-            if refusals:
-                outcome["refused"] = [asdict(r) for r in refusals]
-            place_index = self._place_index if _has_place(steps) else None
-            self.progress.say("planned: " + describe_plan(plan))
-            self.progress.say(f"pre-flight: {len(checks)} checks passed")
-            audit.append(
-                {
-                    "event": "plan",
-                    **context,
-                    "dry_run": dry_run,
-                    "candidate": index,
-                    **plan_record(
-                        self.config, self.calibration, detections[index], plan, capture.source
-                    ),
-                    "targets": steps_record(steps),
-                    "place_index": place_index,
-                    "checks": [asdict(check) for check in checks],
-                }
-            )
-            reached: dict[str, Transform] = {}
-            status = Status.DRY_RUN
-            if not dry_run:
-                done = execute(
-                    self.config, steps, self.arm, self.progress, outcome, before_move, self._gripper
-                )
-                reached = done.reached
-                if done.grasp is GraspState.MISSED:
-                    status, place_index = Status.MISSED, None
-                elif place_index is not None:
-                    self._place_index += 1
-                    status = Status.PLACED
-                else:
-                    status = Status.PICKED
-                # A part picked and not placed is carried until a place releases it.
-                self._holding = done.grasp if status is Status.PICKED else None
-            errors = reached_errors(steps, reached)
-            outcome.update(
-                status=status,
-                candidate=index,
-                errors={name: asdict(error) for name, error in errors.items()},
-            )
-        place_pose = _place_pose(steps) if place_index is not None else None
-        return PickResult(
-            status=status,
-            candidate=index,
-            plan=plan,
-            checks=checks,
-            refused=refusals,
-            reached=reached,
-            errors=errors,
-            capture=capture,
-            cycle=cycle,
-            pick_id=audit.pick_id,
-            place_index=place_index,
-            T_base_tcp_place=place_pose,
-            cycle_s=time.monotonic() - started,
-        )
-
-    def _choose(
-        self,
-        detections: list[Detection],
-        T_base_flange: Transform,
-        T_flange_tcp: Transform,
-        standoff_m: float,
-        grip: bool,
-        place: bool,
-        on_plan: Callable[[PickPlan], None] | None,
-    ) -> tuple[tuple[int, PickPlan, list[Step], list[CheckResult]], list[CandidateRefusal]]:
-        """The first candidate whose whole sequence passes the pre-flight, and the refusals of
-        those before it; NoFeasibleCandidate when none passes."""
-        refusals: list[CandidateRefusal] = []
-        place_config = self.config.place if place else None
-        for index, detection in enumerate(detections):
-            plan = chain_plan(
+            pick.chosen, pick.refused = choose(
                 self.config,
                 self.calibration,
-                detection,
+                detections,
                 T_base_flange,
                 T_flange_tcp,
-                standoff_m=standoff_m,
+                lambda plan: self._pick_steps(plan, place=place, grip=grip),
+                self.arm,
+                self._fixed_verdicts,
+                standoff_m=touch.standoff_m if touch is not None else 0.0,
+                on_plan=on_plan,
             )
-            if on_plan is not None:
-                on_plan(plan)
-            steps = pick_steps(plan, grip=grip)
-            if place_config is not None:
-                T_place = place_config.T_base_tcp[self._place_index % len(place_config.T_base_tcp)]
-                steps += place_steps(T_place, place_config, grip=grip)
-            chain_checks = self._plausibility_checks(detection, T_base_flange)
-            try:
-                if not all(check.passed for check in chain_checks):
-                    raise PreflightRefusal(chain_checks)  # nothing asked of the controller
-                checks = chain_checks + check_steps(
-                    self.config, steps, self.arm, self._fixed_verdicts
-                )
-            except PreflightRefusal as refusal:
-                failed = [
-                    f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed
-                ]
-                refusals.append(CandidateRefusal(index, detection.source, failed, refusal.results))
-                continue
-            return (index, plan, steps, checks), refusals
-        if len(refusals) == 1:  # one detection: its own refusal says it best, every check listed
-            raise PreflightRefusal(refusals[0].checks)
-        raise NoFeasibleCandidate(refusals)
-
-    def _plausibility_checks(
-        self, detection: Detection, T_base_flange: Transform
-    ) -> list[CheckResult]:
-        """The chain's plausibility (``plausibility.chain_problems``: an inverted or swapped
-        calibration, an object out of the camera's range) as pre-flight results, target
-        ``chain``; a check the config acknowledges passes and says so."""
-        eye_in_hand = self.calibration.mode is HandEyeMode.EYE_IN_HAND
-        problems = chain_problems(
-            self.calibration,
-            T_base_flange if eye_in_hand else None,
-            detection.T_cam_obj,
-            self.config.workspace,
-            self.config.hand_eye.acknowledge,
-            measured=self.config.hand_eye.camera_position,
-        )
-        acknowledge = self.calibration.settings.acknowledge
-        return [
-            CheckResult(
-                f"plausible {problem.check}",
-                "chain",
-                problem.acknowledged,
-                f"{problem.message} (acknowledged in {acknowledge})"
-                if problem.acknowledged
-                else f"{problem.message} (an unusual mount acknowledges it: {acknowledge}: "
-                f"[{problem.check}])",
+            if pick.refused:
+                outcome["refused"] = [asdict(r) for r in pick.refused]
+            chosen = pick.chosen
+            pick.place_index = self._place_index if _has_place(chosen.steps) else None
+            self.progress.say("planned: " + describe_plan(chosen.plan))
+            self.progress.say(f"pre-flight: {len(chosen.checks)} checks passed")
+            record = plan_record(
+                self.config,
+                self.calibration,
+                detections[chosen.index],
+                chosen.plan,
+                pick.capture.source,
             )
-            for problem in problems
-        ]
+            return Planned(
+                chosen.steps,
+                chosen.checks,
+                {
+                    "dry_run": dry_run,
+                    "candidate": chosen.index,
+                    **record,
+                    "place_index": pick.place_index,
+                },
+            )
 
-    def _live_capture(self) -> Capture:
-        if self.calibration.mode is HandEyeMode.EYE_TO_HAND:
-            return self._register(None, "none (eye-to-hand)")
-        return self._register(
-            self.arm.steady_flange_pose(self.config.capture.steady_timeout_s), "live"
+        def finish(done: Executed | None) -> dict[str, object]:
+            chosen = pick.required_chosen()
+            pick.status = self._after_pick(done, pick)
+            pick.reached = done.reached if done is not None else {}
+            pick.errors = reached_errors(chosen.steps, pick.reached)
+            return {
+                "status": pick.status,
+                "candidate": chosen.index,
+                "errors": {name: asdict(error) for name, error in pick.errors.items()},
+            }
+
+        pick_id = self._run(
+            {"cycle": cycle, "request_id": request_id},
+            prepare,
+            finish,
+            outcome_fields={"dry_run": dry_run},
+            dry_run=dry_run,
+            before_move=touch.before_move if touch is not None else None,
         )
+        return pick.result(pick_id, cycle, time.monotonic() - started)
 
-    # --- place and named poses -------------------------------------------------------------
+    def _pick_steps(self, plan: PickPlan, *, place: bool, grip: bool) -> list[Step]:
+        steps = pick_steps(plan, grip=grip)
+        if place and self.config.place is not None:
+            steps += place_steps(self._next_place_pose(), self.config.place, grip=grip)
+        return steps
 
-    def place(self, *, request_id: str | None = None) -> Transform:
-        """Put a held part down at the next place pose (approach, place, release, retreat);
-        returns that place pose ``T_base_tcp``. ConfigError when no place is configured."""
+    def _after_pick(self, done: Executed | None, pick: _PickState) -> Status:
+        """The pick's status; the next place pose and the part carried brought up to date."""
+        if done is None:
+            return Status.DRY_RUN
+        if done.grasp is GraspState.MISSED:
+            pick.place_index = None
+            status = Status.MISSED
+        elif pick.place_index is not None:
+            self._place_index += 1
+            status = Status.PLACED
+        else:
+            status = Status.PICKED
+        # A part picked and not placed is carried until a place releases it.
+        self._holding = done.grasp if status is Status.PICKED else None
+        return status
+
+    def _next_place_pose(self) -> Transform:
+        """The place pose ``T_base_tcp`` (m) the next place uses (they are used in turn)."""
         place = self.config.place
-        if place is None:
+        if place is None:  # callers check first; the config loader allows no empty list
             raise ConfigError(f"{self.config.path}: no place section: nowhere to put a part")
-        T_place = place.T_base_tcp[self._place_index % len(place.T_base_tcp)]
-        record = {"place_index": self._place_index}
-        self._run_fixed(place_steps(T_place, place, grip=True), "place", request_id, record)
-        self._holding = None
-        self._place_index += 1
-        return T_place
-
-    def move_to(self, pose: str | NamedPose, *, request_id: str | None = None) -> Transform:
-        """Move to a named pose of the config, or to a ``NamedPose`` given directly (moveJ for
-        joints, moveL for a TCP pose), checked and audited like any motion; returns the reached
-        ``T_base_tcp``."""
-        self._require_not_halted()
-        target = self.config.pose(pose) if isinstance(pose, str) else pose
-        steps = [_named_move(target)]
-        reached = self._run_fixed(steps, f"move {target.name}", request_id, {"pose": target.name})
-        return reached[target.name]
+        return place.T_base_tcp[self._place_index % len(place.T_base_tcp)]
 
     def _run_fixed(
         self,
         steps: list[Step],
         what: str,
         request_id: str | None,
-        record: Mapping[str, object],
+        record: dict[str, object],
     ) -> dict[str, Transform]:
-        """Readiness, pre-flight, plan record, moves, outcome record for configured targets."""
-        audit = self._next_audit()
-        context: dict[str, object] = {"cycle": self._cycle, "request_id": request_id, **record}
-        outcome: dict[str, object] = {"event": "outcome", **context, "operation": what}
-        with self._halt_on_fault(), audited_outcome(audit, outcome):
-            self._require_not_halted()
-            self._ready_tcp_offset()
+        """A sequence of configured targets (place poses, named poses) through ``_run``; a
+        carried part is watched on every move."""
+        reached: dict[str, Transform] = {}
+
+        def prepare(
+            T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
+        ) -> Planned:
             checks = check_steps(self.config, steps, self.arm, self._fixed_verdicts)
+            plan = {"operation": what, "config": str(self.config.path)}
+            return Planned(steps, checks, {**plan, "host": self.config.robot.host})
+
+        def finish(done: Executed | None) -> dict[str, object]:
+            if done is not None:
+                reached.update(done.reached)
+            return {"status": Status.DONE}
+
+        self._run(
+            {"cycle": self._cycle, "request_id": request_id, **record},
+            prepare,
+            finish,
+            outcome_fields={"operation": what},
+            holding=self._holding,
+        )
+        return reached
+
+    def _run(
+        self,
+        context: dict[str, object],
+        prepare: Prepare,
+        finish: Finish,
+        *,
+        outcome_fields: dict[str, object],
+        dry_run: bool = False,
+        before_move: Callable[[str], None] | None = None,
+        holding: GraspState | None = None,
+    ) -> str:
+        """The one skeleton every motion sequence runs; returns its pick id.
+
+        In order: a new pick id in the audit; the halt guard; readiness (the controller, the
+        session's program, the active TCP offset); ``prepare`` (plan and pre-flight, which
+        refuse before anything moved); the plan record on disk; the steps (none for a dry run);
+        the outcome record with ``finish``'s status. The outcome is appended whatever the
+        ending, and a robot error halts the cell (``_halt_on_fault``). ``context`` goes into
+        both records; ``holding`` is a part already carried, watched on every move.
+        """
+        audit = self._next_audit()
+        outcome: dict[str, object] = {"event": "outcome", **context, **outcome_fields}
+        with self._halt_on_fault(), audited_outcome(audit, outcome):
+            ensure_not_halted(self.config.robot.host, self._halted)
+            planned = prepare(self._ready_tcp_offset(), context, outcome)
             audit.append(
                 {
                     "event": "plan",
                     **context,
-                    "operation": what,
-                    "config": str(self.config.path),
-                    "host": self.config.robot.host,
-                    "targets": steps_record(steps),
-                    "checks": [asdict(check) for check in checks],
+                    **planned.record,
+                    "targets": steps_record(planned.steps),
+                    "checks": [asdict(check) for check in planned.checks],
                 }
             )
-            reached = execute(
-                self.config,
-                steps,
-                self.arm,
-                self.progress,
-                outcome,
-                gripper=self._gripper,
-                holding=self._holding,  # a carried part is watched on every move
-            ).reached
-            outcome["status"] = Status.DONE
-        return reached
-
-    # --- checks ------------------------------------------------------------------------------
-
-    def check_pose(self, T_base_tcp: Transform) -> list[str]:
-        """Every pre-flight problem a moveL to ``T_base_tcp`` (m) would meet, moving nothing:
-        workspace box, tilt, motion caps, the controller's safety limits and IK. Empty when
-        the move would pass (``poses`` keeps only such targets)."""
-        try:
-            check_steps(self.config, [Move("target", T_base_tcp)], self.arm, self._fixed_verdicts)
-        except PreflightRefusal as refusal:
-            return [f"{r.name}: {r.detail}" for r in refusal.results if not r.passed]
-        return []
-
-    def _require_not_halted(self) -> None:
-        if self._halted is not None:
-            raise CellHalted(
-                f"cell {self.config.robot.host} is halted after a fault ({self._halted}): "
-                "clear the cause on the pendant, then resume; nothing moved"
-            )
+            done = None
+            if not dry_run:
+                done = execute(
+                    self.config,
+                    planned.steps,
+                    self.arm,
+                    self.progress,
+                    outcome,
+                    before_move,
+                    self._gripper,
+                    holding,
+                )
+            outcome.update(finish(done))
+        return audit.pick_id
 
     def _ready_tcp_offset(self) -> Transform:
         """Refuse an unready cell (every problem listed); the active TCP offset when ready."""
-        robot = self.config.robot
         T_flange_tcp = self.arm.tcp_offset()
-        problems = cell_readiness_problems(
-            self.arm.status(),
-            T_flange_tcp,
-            robot.T_flange_tcp,
-            tolerance_mm=robot.tcp_offset_tolerance_mm,
-            tolerance_deg=robot.tcp_offset_tolerance_deg,
-        )
-        if problems:
-            raise SafetyRefusal(f"cell on {robot.host} is not ready: " + "; ".join(problems))
+        ensure_ready(self.arm.status(), T_flange_tcp, self.config.robot)
         return T_flange_tcp
 
     @contextmanager
@@ -908,6 +705,44 @@ class Cell:
             if isinstance(exc, RobotConnectionError):
                 self._close_arm()
             raise
+
+
+class _PickState:
+    """What one pick learns as it runs, for its result."""
+
+    def __init__(self, capture: Capture | None) -> None:
+        self.capture = capture
+        self.chosen: Chosen | None = None
+        self.refused: list[CandidateRefusal] = []
+        self.place_index: int | None = None
+        self.status = Status.DRY_RUN
+        self.reached: dict[str, Transform] = {}
+        self.errors: dict[str, StepError] = {}
+
+    def required_chosen(self) -> Chosen:
+        if self.chosen is None:  # _run calls finish only after prepare chose
+            raise RuntimeError("a pick finished before a candidate was chosen")
+        return self.chosen
+
+    def result(self, pick_id: str, cycle: int, cycle_s: float) -> PickResult:
+        chosen = self.required_chosen()
+        if self.capture is None:  # prepare always sets it
+            raise RuntimeError("a pick finished without a capture")
+        return PickResult(
+            status=self.status,
+            candidate=chosen.index,
+            plan=chosen.plan,
+            checks=chosen.checks,
+            refused=self.refused,
+            reached=self.reached,
+            errors=self.errors,
+            capture=self.capture,
+            cycle=cycle,
+            pick_id=pick_id,
+            place_index=self.place_index,
+            T_base_tcp_place=_place_pose(chosen.steps) if self.place_index is not None else None,
+            cycle_s=cycle_s,
+        )
 
 
 def _named_move(pose: NamedPose) -> Step:

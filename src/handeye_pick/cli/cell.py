@@ -20,7 +20,7 @@ from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
 from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
-    from handeye_pick.cell.session import PickPlan
+    from handeye_pick.cell.plan import PickPlan
 
 
 def add_config_arg(parser: argparse.ArgumentParser) -> None:

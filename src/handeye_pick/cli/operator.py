@@ -36,7 +36,9 @@ from handeye_pick.errors import ExitCode, HandEyePickError, InputError, Status
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell.session import Cell, CellStatus, PickPlan
+    from handeye_pick.cell.plan import PickPlan
+    from handeye_pick.cell.session import Cell
+    from handeye_pick.cell.status import CellStatus
 
 DEFAULT_STANDOFF_MM = 10.0
 

@@ -28,7 +28,8 @@ from handeye_pick.errors import ExitCode, HandEyePickError, Status, ending
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
-    from handeye_pick.cell.session import PickResult, StepError
+    from handeye_pick.cell.plan import StepError
+    from handeye_pick.cell.session import PickResult
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -113,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _failure_fields(exc: BaseException) -> dict[str, object]:
     """The report's ``status`` (the pick's outcome status, ``errors.ending``) and ``error``."""
-    from handeye_pick.cell.session import PreflightRefusal
+    from handeye_pick.safety import PreflightRefusal
 
     status = ending(exc).outcome
     if isinstance(exc, KeyboardInterrupt):
