@@ -26,6 +26,7 @@ unlocked, reconnected or re-sent by itself.
 
 from __future__ import annotations
 
+import functools
 import logging
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -510,95 +511,92 @@ class Cell:
         if capture is None:
             self._cycle += 1
         cycle = capture.cycle if capture is not None else self._cycle
-        pick = _PickState(capture)
-        grip = touch is None
-
-        def prepare(
-            T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
-        ) -> Planned:
-            pick.capture = pick.capture or self._live_capture()  # after the readiness check
-            outcome["capture_id"] = context["capture_id"] = pick.capture.capture_id
-            T_base_flange = pick.capture.T_base_flange
-            if T_base_flange is None:  # eye-to-hand: only the position-only yaw needs the arm
-                T_base_flange = self.arm.flange_pose()
-            pick.chosen, pick.refused = choose(
-                self.config,
-                self.calibration,
-                detections,
-                T_base_flange,
-                T_flange_tcp,
-                lambda plan: self._pick_steps(plan, place=place, grip=grip),
-                self.arm,
-                self._fixed_verdicts,
-                standoff_m=touch.standoff_m if touch is not None else 0.0,
-                on_plan=on_plan,
-            )
-            if pick.refused:
-                outcome["refused"] = [asdict(r) for r in pick.refused]
-            chosen = pick.chosen
-            pick.place_index = self._place_index if _has_place(chosen.steps) else None
-            self.progress.say("planned: " + describe_plan(chosen.plan))
-            self.progress.say(f"pre-flight: {len(chosen.checks)} checks passed")
-            record = plan_record(
-                self.config,
-                self.calibration,
-                detections[chosen.index],
-                chosen.plan,
-                pick.capture.source,
-            )
-            return Planned(
-                chosen.steps,
-                chosen.checks,
-                {
-                    "dry_run": dry_run,
-                    "candidate": chosen.index,
-                    **record,
-                    "place_index": pick.place_index,
-                },
-            )
-
-        def finish(done: Executed | None) -> dict[str, object]:
-            chosen = pick.required_chosen()
-            pick.status = self._after_pick(done, pick)
-            pick.reached = done.reached if done is not None else {}
-            pick.errors = reached_errors(chosen.steps, pick.reached)
-            return {
-                "status": pick.status,
-                "candidate": chosen.index,
-                "errors": {name: asdict(error) for name, error in pick.errors.items()},
-            }
-
+        pick = _PickRun(detections, capture, place, dry_run, touch, on_plan)
         pick_id = self._run(
             {"cycle": cycle, "request_id": request_id},
-            prepare,
-            finish,
+            functools.partial(self._prepare_pick, pick),
+            functools.partial(self._finish_pick, pick),
             outcome_fields={"dry_run": dry_run},
             dry_run=dry_run,
             before_move=touch.before_move if touch is not None else None,
         )
         return pick.result(pick_id, cycle, time.monotonic() - started)
 
+    def _prepare_pick(
+        self,
+        pick: _PickRun,
+        T_flange_tcp: Transform,
+        context: dict[str, object],
+        outcome: dict[str, object],
+    ) -> Planned:
+        """The capture (latched live if none was given, after the readiness check), the first
+        candidate whose whole sequence passes every check, and its plan record."""
+        capture = pick.capture = pick.capture or self._live_capture()
+        outcome["capture_id"] = context["capture_id"] = capture.capture_id
+        T_base_flange = capture.T_base_flange
+        if T_base_flange is None:  # eye-to-hand: only the position-only yaw needs the arm
+            T_base_flange = self.arm.flange_pose()
+        grip = pick.touch is None
+        chosen, pick.refused = choose(
+            self.config,
+            self.calibration,
+            pick.detections,
+            T_base_flange,
+            T_flange_tcp,
+            lambda plan: self._pick_steps(plan, place=pick.place, grip=grip),
+            self.arm,
+            self._fixed_verdicts,
+            standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
+            on_plan=pick.on_plan,
+        )
+        pick.chosen = chosen
+        if pick.refused:
+            outcome["refused"] = [asdict(r) for r in pick.refused]
+        pick.place_index = self._place_index if _has_place(chosen.steps) else None
+        self.progress.say("planned: " + describe_plan(chosen.plan))
+        self.progress.say(f"pre-flight: {len(chosen.checks)} checks passed")
+        detection = pick.detections[chosen.index]
+        record = plan_record(self.config, self.calibration, detection, chosen.plan, capture.source)
+        return Planned(
+            chosen.steps,
+            chosen.checks,
+            {
+                "dry_run": pick.dry_run,
+                "candidate": chosen.index,
+                **record,
+                "place_index": pick.place_index,
+            },
+        )
+
+    def _finish_pick(self, pick: _PickRun, done: Executed | None) -> dict[str, object]:
+        """The pick's outcome fields; the next place pose and the part carried brought up to
+        date."""
+        chosen = pick.required_chosen()
+        pick.reached = done.reached if done is not None else {}
+        pick.errors = reached_errors(chosen.steps, pick.reached)
+        if done is None:
+            pick.status = Status.DRY_RUN
+        elif done.grasp is GraspState.MISSED:
+            pick.place_index = None
+            pick.status = Status.MISSED
+        elif pick.place_index is not None:
+            self._place_index += 1
+            pick.status = Status.PLACED
+        else:
+            pick.status = Status.PICKED
+        if done is not None:  # a part picked and not placed is carried until a place releases it
+            self._holding = done.grasp if pick.status is Status.PICKED else None
+        return {
+            "status": pick.status,
+            "candidate": chosen.index,
+            "errors": {name: asdict(error) for name, error in pick.errors.items()},
+        }
+
     def _pick_steps(self, plan: PickPlan, *, place: bool, grip: bool) -> list[Step]:
         steps = pick_steps(plan, grip=grip)
         if place and self.config.place is not None:
             steps += place_steps(self._next_place_pose(), self.config.place, grip=grip)
         return steps
-
-    def _after_pick(self, done: Executed | None, pick: _PickState) -> Status:
-        """The pick's status; the next place pose and the part carried brought up to date."""
-        if done is None:
-            return Status.DRY_RUN
-        if done.grasp is GraspState.MISSED:
-            pick.place_index = None
-            status = Status.MISSED
-        elif pick.place_index is not None:
-            self._place_index += 1
-            status = Status.PLACED
-        else:
-            status = Status.PICKED
-        # A part picked and not placed is carried until a place releases it.
-        self._holding = done.grasp if status is Status.PICKED else None
-        return status
 
     def _next_place_pose(self) -> Transform:
         """The place pose ``T_base_tcp`` (m) the next place uses (they are used in turn)."""
@@ -707,11 +705,24 @@ class Cell:
             raise
 
 
-class _PickState:
-    """What one pick learns as it runs, for its result."""
+class _PickRun:
+    """One pick's inputs, and what it learns as it runs, for its result."""
 
-    def __init__(self, capture: Capture | None) -> None:
+    def __init__(
+        self,
+        detections: list[Detection],
+        capture: Capture | None,
+        place: bool,
+        dry_run: bool,
+        touch: TouchTest | None,
+        on_plan: Callable[[PickPlan], None] | None,
+    ) -> None:
+        self.detections = detections
         self.capture = capture
+        self.place = place
+        self.dry_run = dry_run
+        self.touch = touch
+        self.on_plan = on_plan
         self.chosen: Chosen | None = None
         self.refused: list[CandidateRefusal] = []
         self.place_index: int | None = None
