@@ -245,19 +245,21 @@ def choose(
     detections: Sequence[Detection],
     T_base_flange: Transform,
     T_flange_tcp: Transform,
-    steps_for: Callable[[PickPlan], list[Step]],
     arm: RobotArm,
     verdicts: ControllerVerdicts,
     *,
+    T_base_tcp_place: Transform | None,
+    grip: bool,
     standoff_m: float = 0.0,
     on_plan: Callable[[PickPlan], None] | None = None,
 ) -> tuple[Chosen, list[CandidateRefusal]]:
-    """The first candidate whose whole sequence (``steps_for`` its plan) passes the chain's
-    plausibility and every pre-flight check, and the refusals of those before it.
-
-    ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset.
-    Raises ``NoFeasibleCandidate`` when none passes, or the one candidate's own
-    ``PreflightRefusal`` (every check listed) when there was only one.
+    """The first candidate whose whole sequence (the pick, then the place at
+        ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
+        and the refusals of those before it.
+     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
+    ``grip`` False leaves the gripper out of the steps (a touch test). Raises ``NoFeasibleCandidate``
+    when none passes, or the one candidate's own ``PreflightRefusal`` (every check listed) when there
+    was only one.
     """
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):
@@ -266,7 +268,9 @@ def choose(
         )
         if on_plan is not None:
             on_plan(plan)
-        steps = steps_for(plan)
+        steps = pick_steps(plan, grip=grip)
+        if T_base_tcp_place is not None and config.place is not None:
+            steps += place_steps(T_base_tcp_place, config.place, grip=grip)
         plausible = chain_checks(config, calibration, detection.T_cam_obj, T_base_flange)
         try:
             if not all(check.passed for check in plausible):

@@ -55,7 +55,6 @@ from handeye_pick.cell.plan import (
     check_steps,
     choose,
     describe_plan,
-    pick_steps,
     place_steps,
     reached_errors,
 )
@@ -69,7 +68,13 @@ from handeye_pick.cell.status import (
     session_status,
     unread,
 )
-from handeye_pick.config.schema import CellConfig, GripperConfig, NamedPose, load_config
+from handeye_pick.config.schema import (
+    CellConfig,
+    GripperConfig,
+    NamedPose,
+    PlaceConfig,
+    load_config,
+)
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
     ConfigError,
@@ -475,7 +480,7 @@ class Cell:
         place = self.config.place
         if place is None:
             raise ConfigError(f"{self.config.path}: no place section: nowhere to put a part")
-        T_place = self._next_place_pose()
+        T_place = self._next_place_pose(place)
         steps = place_steps(T_place, place, grip=True)
         self._run_fixed(steps, "place", request_id, {"place_index": self._place_index})
         self._holding = None
@@ -536,16 +541,17 @@ class Cell:
         T_base_flange = capture.T_base_flange
         if T_base_flange is None:  # eye-to-hand: only the position-only yaw needs the arm
             T_base_flange = self.arm.flange_pose()
-        grip = pick.touch is None
+        place = self.config.place if pick.place else None
         chosen, pick.refused = choose(
             self.config,
             self.calibration,
             pick.detections,
             T_base_flange,
             T_flange_tcp,
-            lambda plan: self._pick_steps(plan, place=pick.place, grip=grip),
             self.arm,
             self._fixed_verdicts,
+            T_base_tcp_place=self._next_place_pose(place) if place is not None else None,
+            grip=pick.touch is None,
             standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
             on_plan=pick.on_plan,
         )
@@ -592,17 +598,8 @@ class Cell:
             "errors": {name: asdict(error) for name, error in pick.errors.items()},
         }
 
-    def _pick_steps(self, plan: PickPlan, *, place: bool, grip: bool) -> list[Step]:
-        steps = pick_steps(plan, grip=grip)
-        if place and self.config.place is not None:
-            steps += place_steps(self._next_place_pose(), self.config.place, grip=grip)
-        return steps
-
-    def _next_place_pose(self) -> Transform:
+    def _next_place_pose(self, place: PlaceConfig) -> Transform:
         """The place pose ``T_base_tcp`` (m) the next place uses (they are used in turn)."""
-        place = self.config.place
-        if place is None:  # callers check first; the config loader allows no empty list
-            raise ConfigError(f"{self.config.path}: no place section: nowhere to put a part")
         return place.T_base_tcp[self._place_index % len(place.T_base_tcp)]
 
     def _run_fixed(
