@@ -39,6 +39,7 @@ class Status(str, Enum):
     NO_CANDIDATE = "no-candidate"
     HALTED = "halted"
     DROPPED = "dropped"
+    ABORTED = "aborted"  # refused after the arm had moved: it stands where it stopped
     FAULT = "fault"
     INTERRUPTED = "interrupted"
     ERROR = "error"  # a defect, not a failure this package knows
@@ -128,6 +129,11 @@ class PartDropped(RobotError):
     """A part confirmed in the gripper was lost while the arm carried it; the arm was stopped."""
 
 
+class SequenceAborted(RobotError):
+    """A check refused a step after the sequence had already moved the arm: it stands where it
+    stopped, not where it started, so this is a fault (exit 4, the cell halts), not a refusal."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
     the outcome), then exit status 143 instead of 130."""
@@ -155,6 +161,7 @@ _ENDINGS: tuple[tuple[type[BaseException], Ending], ...] = (  # the first matchi
     (PlanRefused, Ending(Status.REFUSED, Status.NO_CANDIDATE, ExitCode.REFUSED)),
     (SafetyRefusal, Ending(Status.REFUSED, Status.REFUSED, ExitCode.REFUSED)),
     (PartDropped, Ending(Status.DROPPED, Status.DROPPED, ExitCode.ROBOT_FAULT)),
+    (SequenceAborted, Ending(Status.ABORTED, Status.ABORTED, ExitCode.ROBOT_FAULT)),
     (RobotError, Ending(Status.FAULT, Status.FAULT, ExitCode.ROBOT_FAULT)),
     (InputError, Ending(Status.BAD_INPUT, Status.BAD_REQUEST, ExitCode.BAD_INPUT)),
 )

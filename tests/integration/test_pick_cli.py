@@ -367,20 +367,31 @@ def test_controller_that_stops_answering_ends_the_pick(
     assert not ctl.snapshot().moving
 
 
-def test_remote_control_switched_off_mid_pick_refuses_the_next_move(
+def test_remote_control_switched_off_mid_pick_aborts_it_as_a_fault(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
-    # Only the dashboard's answer changes and the running move ends; the readiness bits are
-    # checked again before every move, so the retreat is never sent (exit 3).
+    # Only the dashboard's answer changes and the running move ends; remote control is checked
+    # again before every move, so the retreat is never sent. The arm has moved and stands at
+    # the grasp: not "refused, nothing moved" (exit 3) but a fault of its own (exit 4, aborted).
     ctl = sim_controller(
         tcp_offset=TCP_OFFSET, speed_factor=4.0, inject=("remote-control-off@move:2:0.5",)
     )
     status, report = run_json(
         write_config(tmp_path, ctl.host), "--detection", str(DEMO / "detection.yaml")
     )
-    assert status == 3, report
+    assert status == 4, report
+    assert report["status"] == "aborted"
+    assert report["error_type"] == "SequenceAborted"
     assert "local control" in str(report["error"])
+    assert "stands at 'grasp'" in str(report["error"])
+    outcome = audit_records(tmp_path)[-1]
+    assert outcome["status"] == "aborted"
+    assert outcome["step"] == "retreat"
+    assert set(outcome["reached"]) == {"approach", "grasp"}
+    assert "local control" in outcome["error"]["message"]
+    assert outcome["stop"] == "stopL sent"
     assert len(motion_commands(ctl)) == 2
+    assert not ctl.snapshot().moving
 
 
 def test_ctrl_c_during_a_slow_move(sim_controller: SimFactory, tmp_path: Path) -> None:

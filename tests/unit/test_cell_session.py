@@ -23,7 +23,14 @@ from handeye_pick.cell.sequence import move_timeout_s
 from handeye_pick.cell.session import Cell, PickResult
 from handeye_pick.config.schema import CellConfig, load_config
 from handeye_pick.detection import Detection, detection_from_point_mm
-from handeye_pick.errors import CellHalted, RobotFault, SafetyRefusal
+from handeye_pick.errors import (
+    CellHalted,
+    InputError,
+    RobotFault,
+    SafetyRefusal,
+    SequenceAborted,
+    ending,
+)
 from handeye_pick.geometry import (
     Transform,
     make_transform,
@@ -484,6 +491,47 @@ def test_a_fault_halts_the_cell_until_resume(tmp_path: Path) -> None:
     cell.resume()
     assert cell.halted is None
     assert cell.pick(_detection()).status == "picked"
+
+
+@pytest.mark.parametrize(
+    "refusal",
+    [
+        SafetyRefusal("moveL refused, nothing sent: the robot was switched to local control"),
+        InputError("a defect of input met only mid-sequence"),
+    ],
+)
+def test_a_refusal_after_the_arm_moved_is_a_fault_that_halts(
+    tmp_path: Path, refusal: Exception
+) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.fail_on_move, arm.failure = 2, refusal  # the approach ran, the grasp is refused
+    cell = _cell(config, arm)
+    with pytest.raises(SequenceAborted, match="stands at 'approach'") as raised:
+        cell.pick(_detection())
+    assert raised.value.__cause__ is refusal
+    assert ending(raised.value).exit_code == 4
+    assert cell.halted is not None  # like any fault: nothing moves until resume
+    assert arm.calls[-1] == ("stop", config.motion.stop_decel_mps2)
+    outcome = _records(config.audit.file)[-1]
+    assert outcome["status"] == "aborted"
+    assert outcome["step"] == "grasp"
+    assert set(outcome["reached"]) == {"approach"}  # type: ignore[arg-type]
+    assert outcome["stop"] == "stopL sent"
+
+
+def test_a_refusal_of_the_first_move_is_a_refusal_and_does_not_halt(tmp_path: Path) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.fail_on_move = 1
+    arm.failure = SafetyRefusal("moveL refused, nothing sent: local control")
+    cell = _cell(config, arm)
+    with pytest.raises(SafetyRefusal) as raised:
+        cell.pick(_detection())
+    assert not isinstance(raised.value, SequenceAborted)
+    assert cell.halted is None
+    assert ("stop", config.motion.stop_decel_mps2) not in arm.calls
+    assert _records(config.audit.file)[-1]["status"] == "refused"
 
 
 def test_resume_stays_halted_while_the_cell_is_not_ready(tmp_path: Path) -> None:

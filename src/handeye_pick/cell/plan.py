@@ -254,12 +254,13 @@ def choose(
     on_plan: Callable[[PickPlan], None] | None = None,
 ) -> tuple[Chosen, list[CandidateRefusal]]:
     """The first candidate whose whole sequence (the pick, then the place at
-        ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
-        and the refusals of those before it.
-     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
-    ``grip`` False leaves the gripper out of the steps (a touch test). Raises ``NoFeasibleCandidate``
-    when none passes, or the one candidate's own ``PreflightRefusal`` (every check listed) when there
-    was only one.
+    ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
+    and the refusals of those before it.
+
+    ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
+    ``grip`` False leaves the gripper out of the steps (a touch test). Raises
+    ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
+    (every check listed) when there was only one.
     """
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):

@@ -19,7 +19,14 @@ import numpy as np
 from handeye_pick.cell.payload import held_payload
 from handeye_pick.cell.plan import RETREAT, Grip, JointMove, Move, Step
 from handeye_pick.config.schema import CellConfig, Payload
-from handeye_pick.errors import PartDropped
+from handeye_pick.errors import (
+    HandEyePickError,
+    InputError,
+    PartDropped,
+    RobotError,
+    SafetyRefusal,
+    SequenceAborted,
+)
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list
 from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
@@ -106,12 +113,17 @@ def execute(
     run = _Run(config, arm, progress, outcome, gripper, holding)
     for step in steps:
         outcome["step"] = step.name
-        if isinstance(step, Grip):
-            run.grip(step)
-            continue
-        if before_move is not None:
-            before_move(step.name)
-        run.move(step)
+        try:
+            if isinstance(step, Grip):
+                run.grip(step)
+                continue
+            if before_move is not None:
+                before_move(step.name)
+            run.move(step)
+        except (SafetyRefusal, InputError) as exc:
+            if not run.reached:  # nothing has moved yet: a refusal, as before the sequence
+                raise
+            raise run.aborted(step.name, exc) from exc
         if step.name == run.last_move:
             break
     del outcome["step"]
@@ -132,6 +144,7 @@ class _Run:
         holding: GraspState | None,
     ) -> None:
         self.config = config
+        self.outcome = outcome
         self.arm = arm
         self.progress = progress
         self.gripper = gripper
@@ -144,6 +157,20 @@ class _Run:
             outcome["gripper"] = {"kind": gripper.kind, "commands": self.commands}
         self.last_move: str | None = None  # a missed grasp ends the sequence after this move
         self.T_base_tcp_from: Transform | None = None  # the previous move's target
+
+    def aborted(self, step: str, exc: HandEyePickError) -> SequenceAborted:
+        """A refusal once the arm has moved: stop it where it stands (it is at rest after its
+        last move; the stop makes sure) and end the sequence as a fault."""
+        last = list(self.reached)[-1]
+        try:
+            self.arm.stop_linear(self.config.motion.stop_decel_mps2)
+            self.outcome["stop"] = "stopL sent"
+        except RobotError as stop_error:  # the refusal is what the operator must see first
+            self.outcome["stop"] = f"stopL failed: {stop_error}"
+        return SequenceAborted(
+            f"{step} refused after the arm had moved, so it stands at {last!r}, not where the "
+            f"sequence started: {exc}; the cell is halted: clear the cause, then resume"
+        )
 
     def grip(self, step: Grip) -> None:
         """Close (and confirm) or open the gripper; set the payload that follows."""
