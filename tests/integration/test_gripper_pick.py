@@ -107,15 +107,22 @@ def test_missed_grasp_opens_retreats_and_exits_5(
     config = robotiq_config(tmp_path, ctl.host, place=PLACE)
     status, report = run_json(config, "--detection", str(DEMO / "detection.yaml"))
     assert (status, report["status"]) == (5, "missed"), report
-    assert commands(ctl) == [("moveL", None)] * 3  # no payload, no place
+    # the tool's payload again after the miss (it never carried the part), no place
+    assert [kind for kind, _ in commands(ctl)] == ["moveL", "moveL", "setPayload", "moveL"]
+    assert commands(ctl)[2][1] == pytest.approx(1.0)
     assert ur_pose_to_matrix(list(ctl.snapshot().tcp_pose)) == pytest.approx(
         ur_pose_to_matrix(report["reached"]["retreat"]), abs=1e-6
     )
     assert ctl.snapshot().gripper_position == 0  # opened again
     outcome = audit_records(tmp_path)[-1]
     assert outcome["status"] == "missed"
-    assert [c["command"] for c in outcome["gripper"]["commands"]] == ["close", "open"]
+    assert [c["command"] for c in outcome["gripper"]["commands"]] == [
+        "close",
+        "open",
+        "set_payload",
+    ]
     assert outcome["gripper"]["commands"][0]["grasp"] == "missed"
+    assert outcome["gripper"]["commands"][2]["payload"] == "empty tool"
 
 
 def test_part_dropped_during_retreat_stops_the_arm_and_halts_the_runner(
@@ -143,19 +150,24 @@ def test_part_dropped_during_retreat_stops_the_arm_and_halts_the_runner(
         assert cell.halted is not None
         again = runner.handle(json.dumps({**request, "id": "2"}))
         assert again["status"] == "halted"
-    # The retreat was stopped, and nothing was sent after it.
+    # The retreat was stopped, the payload is the empty tool's again, and no motion followed.
     assert [kind for kind, _ in commands(ctl)] == [
         "moveL",
         "moveL",
         "setPayload",
         "moveL",
         "stopL",
+        "setPayload",
     ]
+    assert [value for _, value in commands(ctl)][-1] == pytest.approx(1.0)
     dropped, halted = audit_records(tmp_path)[-2:]  # the second request was refused
     assert (dropped["status"], dropped["step"]) == ("dropped", "retreat")
     assert halted["status"] == "halted"
     outcome = dropped
     assert outcome["error"]["type"] == PartDropped.__name__
+    last = outcome["gripper"]["commands"][-1]
+    assert (last["command"], last["payload"], last["mass_kg"]) == ("set_payload", "empty tool", 1.0)
+    assert ctl.snapshot().payload_kg == 1.0  # not the 1.5 kg of tool and part
 
 
 def test_a_part_held_between_pick_and_place_is_watched_on_every_move(
@@ -174,7 +186,8 @@ def test_a_part_held_between_pick_and_place_is_watched_on_every_move(
         with pytest.raises(PartDropped, match="lost the part"):
             cell.move_to("home")
         assert cell.halted is not None
-    assert [kind for kind, _ in commands(ctl)][-2:] == ["moveL", "stopL"]
+    assert [kind for kind, _ in commands(ctl)][-3:] == ["moveL", "stopL", "setPayload"]
+    assert ctl.snapshot().payload_kg == 1.0  # the empty tool's again
     assert audit_records(tmp_path)[-1]["status"] == "dropped"
 
 

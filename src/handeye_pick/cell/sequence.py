@@ -185,17 +185,35 @@ class _Run:
         self.grasp = _close(gripper, progress, commands)
         if self.grasp is GraspState.MISSED:
             _release(gripper, progress, commands)
+            _set_payload(self.arm, self.config.robot.tool_payload, "empty tool", progress, commands)
             self.last_move = RETREAT
         else:
             _set_payload(self.arm, _object_payload(self.config), "part", progress, commands)
+
+    def _tool_payload_after_loss(self) -> None:
+        """The empty tool's payload after a dropped part (a wrong payload shows up as protective
+        stops); the arm is stopped already, so a controller that refuses it now is recorded,
+        not raised over the drop."""
+        tool = self.config.robot.tool_payload
+        try:
+            _set_payload(self.arm, tool, "empty tool", self.progress, self.commands)
+        except RobotError as exc:
+            self.commands.append(
+                {"command": "set_payload", "payload": "empty tool", "error": str(exc)}
+            )
 
     def move(self, step: Move | JointMove) -> None:
         """One moveJ or moveL, its command capped and its timeout bounded before it is sent; a
         confirmed part is watched while it runs."""
         watched = self.gripper if self.grasp is GraspState.CONFIRMED else None
         send = self._joint_command(step) if isinstance(step, JointMove) else self._linear(step)
-        with self.progress.step(step.name) as report:
-            reached = send(_watching(report, watched, step.name))
+        try:
+            with self.progress.step(step.name) as report:
+                reached = send(_watching(report, watched, step.name))
+        except PartDropped:
+            self.grasp = None  # the part is gone: the tool alone hangs on the flange again
+            self._tool_payload_after_loss()
+            raise
         self.reached[step.name] = reached
         self.reached_ur[step.name] = ur_pose_list(reached)
         self.T_base_tcp_from = reached if isinstance(step, JointMove) else step.T_base_tcp
