@@ -478,3 +478,31 @@ def test_eye_to_hand_capture_moves_out_of_view_and_latches_no_pose(
         )
         assert picked["status"] == "placed", picked
         np.testing.assert_allclose(picked["targets"]["grasp"][:3], [-0.52, -0.20, 0.06], atol=1e-9)
+
+
+def test_a_second_session_on_a_robot_in_use_is_refused_before_connecting(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    config = loop_config(tmp_path, ctl.host)
+    with loop(config) as run:
+        assert run.ask({"id": "s", "op": "status"})["ok"] is True  # run holds the robot now
+        commands_before = len(ctl.commands)
+        second = subprocess.run(
+            [*CLI, "pick", "--config", str(config), "--xyz", "35", "-20", "384", "--json"],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=60,
+            check=False,
+        )
+        assert second.returncode == 3, second.stderr
+        (line,) = second.stderr.strip().splitlines()
+        assert f"in use by process {run.process.pid}" in line
+        assert " run --config " in line and "nothing was sent" in line
+        report = json.loads(second.stdout)
+        assert report["status"] == "refused"
+        assert ctl.snapshot().program_running  # run's control program was left running
+        assert len(ctl.commands) == commands_before
+        assert run.ask({"id": "s2", "op": "status"})["ok"] is True  # and run goes on
+        assert run.close() == 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
+import uuid
 import math
 from pathlib import Path
 
@@ -154,9 +155,11 @@ def _records(path: Path) -> list[dict[str, object]]:
 def _config(
     tmp_path: Path, mode: str = "eye-in-hand", gripper: str = "", extra: str = ""
 ) -> CellConfig:
+    # A host of its own per cell: a ScriptedArm connects nowhere, and the robot's session lock
+    # (cell/lock.py) must not meet another test's cell, in this run or a parallel one.
     text = f"""
 robot:
-  host: 127.0.0.1
+  host: scripted-{uuid.uuid4().hex}
   tcp_offset: [0, 0, 0.12, 0, 0, 0]
 {gripper}
 hand_eye:

@@ -43,6 +43,7 @@ from handeye_pick.calibration.files import (
     load_hand_eye,
 )
 from handeye_pick.cell.captures import Capture, CaptureBook
+from handeye_pick.cell.lock import CellLock
 from handeye_pick.cell.plan import (
     CandidateRefusal,
     Chosen,
@@ -197,6 +198,7 @@ class Cell:
         self._holding: GraspState | None = None  # a part picked and not yet placed
         self._fixed_verdicts: ControllerVerdicts = {}
         self._audit: AuditLog | None = None
+        self._lock = CellLock(self.config.robot.host)
 
     # --- session ---------------------------------------------------------------------------
 
@@ -217,9 +219,12 @@ class Cell:
         self.close()
 
     def connect(self, *, request_id: str | None = None) -> None:
-        """Open the audit file (``audit.open_audit``: appendable, locked, unfinished picks of a
-        killed process closed as abandoned) before anything is sent, then the robot session; a
-        failure to connect is audited (step ``connect``) and raised."""
+        """Take the robot's lock (one session per robot: ``CellInUse`` names the holder, and
+        nothing is opened or sent), open the audit file (``audit.open_audit``: appendable,
+        locked, unfinished picks of a killed process closed as abandoned) before anything is
+        sent, then the robot session; a failure to connect is audited (step ``connect``) and
+        raised."""
+        self._lock.acquire()
         if self._audit is None:
             self._audit, warnings = open_audit(self.config.audit.file)
             for warning in warnings:
@@ -241,6 +246,7 @@ class Cell:
     def close(self) -> None:
         """Close the robot session and release the audit file; safe to call twice."""
         self._close_arm()
+        self._lock.release()
         if self._audit is not None:
             self._audit.close()
             self._audit = None
