@@ -1,5 +1,5 @@
 #!/bin/sh
-# Redraws docs/plan-example.png, the README's picture of `handeye-pick plan --plot`.
+# Redraws docs/plan-example.png, the picture of `handeye-pick plan --plot` in docs/commands.md.
 # Offline: the flange pose is given on the command line, so no robot or simulator is needed.
 # Run from anywhere with the project's environment active (or HANDEYE_PICK=.venv/bin/handeye-pick).
 set -eu

@@ -1,6 +1,6 @@
 """The start-up and cloud-job benchmarks keep running: tiny inputs, one round, figures not read.
 
-Their figures are for people (README "Speed"); these tests only keep the scripts from rotting
+Their figures are for people (docs/benchmarks.md); these tests only keep the scripts from rotting
 when a command's options change. No timing is asserted.
 """
 
