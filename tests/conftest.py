@@ -10,6 +10,7 @@ import pytest
 from hypothesis import settings
 
 from mocks.ur_controller import SimulatedController
+from tests.audit_schema import invalid_records
 
 # ur_rtde's ports are fixed (30004, 29999, 30003), so every simulated controller gets its own
 # loopback address. 127.0.0.1 is left to the demo and to people running the mock by hand.
@@ -81,3 +82,16 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if "hardware" in item.keywords:
             item.add_marker(skip)
+
+
+@pytest.fixture(scope="session", autouse=True)
+def every_audit_record_matches_the_schema(
+    tmp_path_factory: pytest.TempPathFactory,
+) -> Iterator[None]:
+    """After the whole run: every audit record handeye-pick wrote under the run's temporary
+    folders is valid against docs/audit.schema.json (an error here names file, line, problem)."""
+    yield
+    problems = invalid_records(tmp_path_factory.getbasetemp())
+    assert not problems, "audit records not valid against docs/audit.schema.json:\n" + "\n".join(
+        problems[:20]
+    )

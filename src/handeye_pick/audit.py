@@ -1,10 +1,13 @@
 """Append-only pick log: one JSON object per line, on disk before ``append`` returns.
 
-Nothing may move without its audit record, so a record that cannot be written raises
-``AuditError`` instead of being dropped. Every record gets ``timestamp`` (ISO 8601, UTC) and
-``pick_id`` (shared by the records of one pick). Numpy arrays become lists, paths strings, enums
-their values, dataclasses mappings; non-finite floats become the strings "nan", "inf", "-inf" so
-every line stays strict JSON.
+Nothing may move without its audit record, so a record that cannot be written raises ``AuditError``
+instead of being dropped. Every record gets ``schema`` (the format version, ``SCHEMA_VERSION``;
+docs/audit.schema.json describes every record kind), ``timestamp`` (ISO 8601, UTC) and ``pick_id``
+(shared by the records of one pick). Readers take records of this version and older (records without
+``schema`` were written before versions existed) and refuse a newer one with ``AuditError``: a
+record they do not know must not be taken for one they do. Numpy arrays become lists, paths strings,
+enums their values, dataclasses mappings; non-finite floats become the strings "nan", "inf", "-inf"
+so every line stays strict JSON.
 
 Opening: a command or session calls ``open_audit(path)`` once, before anything connects to a
 robot. It checks the file can be appended and fsynced (``AuditError``, one line, otherwise),
@@ -41,7 +44,11 @@ import numpy as np
 
 from handeye_pick.errors import InputError
 
-RESERVED_KEYS = ("timestamp", "pick_id")
+SCHEMA_VERSION = 1
+"""The audit format's version. Adding an optional field keeps it; renaming or removing a field,
+changing a field's meaning or unit, or a new record kind raises it (docs/files-and-frames.md)."""
+
+RESERVED_KEYS = ("schema", "timestamp", "pick_id")
 
 SCAN_LIMIT_BYTES = 16_000_000
 """``open_audit`` looks for unfinished plans in at most this many bytes at the end of the file
@@ -121,6 +128,7 @@ class AuditLog:
         if clash:
             raise AuditError(f"audit record: keys {clash} are set by the audit log itself")
         stamped = {
+            "schema": SCHEMA_VERSION,
             "timestamp": datetime.now(timezone.utc).isoformat(timespec="microseconds"),
             "pick_id": self.pick_id,
             **record,
@@ -196,13 +204,13 @@ def read_audit(path: Path) -> Iterator[dict[str, object] | TornLine]:
     offset = 0
     with Path(path).open("rb") as file:
         for raw in file:
-            entry = _entry(raw.rstrip(b"\n"), offset)
+            entry = _entry(raw.rstrip(b"\n"), offset, path)
             offset += len(raw)
             if entry is not None:
                 yield entry
 
 
-def _entry(raw: bytes, offset: int) -> dict[str, object] | TornLine | None:
+def _entry(raw: bytes, offset: int, path: Path) -> dict[str, object] | TornLine | None:
     if not raw.strip():
         return None
     try:
@@ -210,6 +218,7 @@ def _entry(raw: bytes, offset: int) -> dict[str, object] | TornLine | None:
     except (UnicodeDecodeError, ValueError):
         record = None
     if isinstance(record, dict):
+        _check_version(record, offset, path)
         return record
     text = raw.decode("utf-8", errors="replace")
     return TornLine(offset, text if len(text) <= 80 else text[:77] + "...")
@@ -285,6 +294,18 @@ class _Lock:
             self._fd = None
 
 
+def _check_version(record: Mapping[str, object], offset: int, path: Path) -> None:
+    version = record.get("schema", 0)  # no version: written before versions existed
+    if not (isinstance(version, int) and not isinstance(version, bool)):
+        raise AuditError(f"audit {path}: the record at byte {offset} has schema {version!r}")
+    if version > SCHEMA_VERSION:
+        raise AuditError(
+            f"audit {path}: the record at byte {offset} is in audit format version {version}, "
+            f"newer than this handeye-pick reads ({SCHEMA_VERSION}): read it with the "
+            "handeye-pick that wrote it, or give this one a new audit file"
+        )
+
+
 def _unfinished_plans(path: Path) -> tuple[list[dict[str, object]], list[TornLine]]:
     """Plans without an outcome after the last plan that has one (file order), and the torn
     lines met reading back to it."""
@@ -293,7 +314,7 @@ def _unfinished_plans(path: Path) -> tuple[list[dict[str, object]], list[TornLin
     torn: list[TornLine] = []
     with path.open("rb") as file:
         for offset, raw in _lines_from_end(file, SCAN_LIMIT_BYTES):
-            entry = _entry(raw, offset)
+            entry = _entry(raw, offset, path)
             if isinstance(entry, TornLine):
                 torn.append(entry)
             elif entry is not None and entry.get("event") == "outcome":

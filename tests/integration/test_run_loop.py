@@ -499,7 +499,8 @@ def test_a_second_session_on_a_robot_in_use_is_refused_before_connecting(
         assert second.returncode == 3, second.stderr
         (line,) = second.stderr.strip().splitlines()
         assert f"in use by process {run.process.pid}" in line
-        assert " run --config " in line and "nothing was sent" in line
+        assert " run --config " in line
+        assert "nothing was sent" in line
         report = json.loads(second.stdout)
         assert report["status"] == "refused"
         assert ctl.snapshot().program_running  # run's control program was left running

@@ -37,7 +37,7 @@ def _lines(path: Path) -> list[dict[str, object]]:
 
 
 def test_records_are_appended_one_json_object_per_line(tmp_path: Path) -> None:
-    path = tmp_path / "picks.jsonl"
+    path = tmp_path / "free-picks.jsonl"
     path.write_text('{"earlier": "run"}\n')
     log = AuditLog(path)
     log.append({"event": "plan", "n": 1})
@@ -51,22 +51,22 @@ def test_records_are_appended_one_json_object_per_line(tmp_path: Path) -> None:
 
 def test_timestamp_is_iso_utc_and_now(tmp_path: Path) -> None:
     before = datetime.now(timezone.utc)
-    AuditLog(tmp_path / "a.jsonl").append({"event": "plan"})
-    (record,) = _lines(tmp_path / "a.jsonl")
+    AuditLog(tmp_path / "free-a.jsonl").append({"event": "plan"})
+    (record,) = _lines(tmp_path / "free-a.jsonl")
     stamp = datetime.fromisoformat(str(record["timestamp"]))
     assert stamp.utcoffset() == timedelta(0)
     assert before <= stamp <= datetime.now(timezone.utc)
 
 
 def test_pick_ids_differ_between_logs_unless_given(tmp_path: Path) -> None:
-    assert AuditLog(tmp_path / "a.jsonl").pick_id != AuditLog(tmp_path / "a.jsonl").pick_id
-    log = AuditLog(tmp_path / "a.jsonl", pick_id="touch-7")
+    assert AuditLog(tmp_path / "free-a.jsonl").pick_id != AuditLog(tmp_path / "free-a.jsonl").pick_id
+    log = AuditLog(tmp_path / "free-a.jsonl", pick_id="touch-7")
     log.append({"event": "plan"})
-    assert _lines(tmp_path / "a.jsonl")[0]["pick_id"] == "touch-7"
+    assert _lines(tmp_path / "free-a.jsonl")[0]["pick_id"] == "touch-7"
 
 
 def test_numpy_paths_enums_dataclasses_and_non_finite_become_strict_json(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     AuditLog(path).append(
         {
             "T": np.eye(4),
@@ -102,7 +102,7 @@ def test_numpy_paths_enums_dataclasses_and_non_finite_become_strict_json(tmp_pat
 def test_record_is_fsynced_before_append_returns(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     synced: list[int] = []
     real_fsync = os.fsync
 
@@ -130,7 +130,7 @@ def test_unwritable_file_raises_audit_error(tmp_path: Path, where: str) -> None:
 
 
 def test_unserialisable_value_raises_and_writes_nothing(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     with pytest.raises(AuditError, match=r"record\.outcome\.error of type object"):
         AuditLog(path).append({"outcome": {"error": object()}})
     assert not path.exists()
@@ -139,7 +139,7 @@ def test_unserialisable_value_raises_and_writes_nothing(tmp_path: Path) -> None:
 @pytest.mark.parametrize("key", ["timestamp", "pick_id"])
 def test_reserved_keys_are_refused(tmp_path: Path, key: str) -> None:
     with pytest.raises(AuditError, match="set by the audit log itself"):
-        AuditLog(tmp_path / "a.jsonl").append({key: "x"})
+        AuditLog(tmp_path / "free-a.jsonl").append({key: "x"})
 
 
 # --- before anything connects: can the file be appended to? --------------------------------------
@@ -170,11 +170,11 @@ def test_check_appendable_refuses_a_disk_that_cannot_sync(
 
     monkeypatch.setattr(os, "fsync", fsync)
     with pytest.raises(AuditError, match=r"cannot append to .*\(Input/output error\)"):
-        check_appendable(tmp_path / "a.jsonl")
+        check_appendable(tmp_path / "free-a.jsonl")
 
 
 def test_check_appendable_leaves_an_existing_file_as_it_was(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     check_appendable(path)
     assert path.read_bytes() == b""
     path.write_bytes(b'{"a": 1}\n{"b": ')
@@ -186,7 +186,7 @@ def test_check_appendable_leaves_an_existing_file_as_it_was(tmp_path: Path) -> N
 
 
 def test_append_after_a_torn_line_starts_a_fresh_line(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     AuditLog(path, pick_id="one").append({"event": "plan"})
     complete = path.read_bytes()
     path.write_bytes(complete + b'{"timestamp": "2024-01-01T00:00:00+00:00", "pick_id": "tw')
@@ -203,7 +203,7 @@ def test_append_after_a_torn_line_starts_a_fresh_line(tmp_path: Path) -> None:
 
 def test_zero_filled_tail_is_a_torn_line(tmp_path: Path) -> None:
     # ext4 may leave the file longer but zero-filled after a power cut.
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     path.write_bytes(b'{"a": 1}\n' + b"\0" * 300)
     AuditLog(path).append({"event": "plan"})
     first, torn, plan = read_audit(path)
@@ -217,7 +217,7 @@ def test_zero_filled_tail_is_a_torn_line(tmp_path: Path) -> None:
 
 
 def test_a_complete_last_record_without_its_newline_is_a_record(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     path.write_bytes(b'{"a": 1}\n{"b": 2}')
     AuditLog(path).append({"event": "plan"})
     assert [entry for entry in read_audit(path) if isinstance(entry, TornLine)] == []
@@ -234,7 +234,7 @@ def test_a_complete_last_record_without_its_newline_is_a_record(tmp_path: Path) 
 def test_a_power_cut_anywhere_loses_no_complete_record(
     tmp_path_factory: pytest.TempPathFactory, events: list[str], cut_fraction: float
 ) -> None:
-    path = tmp_path_factory.mktemp("cut") / "a.jsonl"
+    path = tmp_path_factory.mktemp("cut") / "free-a.jsonl"
     log = AuditLog(path)
     for n, event in enumerate(events):
         log.append({"event": event, "n": n})
@@ -275,7 +275,7 @@ PLAN_B = {
 
 
 def test_open_audit_closes_a_plan_left_without_an_outcome(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
     with open_audit(path)[0] as audit:
         pass
@@ -291,7 +291,7 @@ def test_open_audit_closes_a_plan_left_without_an_outcome(tmp_path: Path) -> Non
 
 
 def test_the_abandon_warning_says_what_was_abandoned(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     _write_lines(path, PLAN_A, OUTCOME_A, {**PLAN_B, "dry_run": True})
     audit, (warning,) = open_audit(path)
     audit.close()
@@ -303,7 +303,7 @@ def test_the_abandon_warning_says_what_was_abandoned(tmp_path: Path) -> None:
 
 
 def test_open_audit_reports_a_torn_plan_and_closes_the_one_before(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
     size = path.stat().st_size
     with path.open("ab") as file:
@@ -319,7 +319,7 @@ def test_open_audit_reports_a_torn_plan_and_closes_the_one_before(tmp_path: Path
 
 
 def test_a_live_process_keeps_its_plan(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     _write_lines(path, PLAN_A, OUTCOME_A, PLAN_B)
     other = os.open(path, os.O_RDONLY)  # another process's open_audit holds a shared lock
     try:
@@ -335,7 +335,7 @@ def test_a_live_process_keeps_its_plan(tmp_path: Path) -> None:
 def test_a_session_holds_the_file_until_closed_and_each_cycle_has_its_pick_id(
     tmp_path: Path,
 ) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     first, warnings = open_audit(path)
     assert warnings == []
     first.append({"event": "plan"})
@@ -352,7 +352,7 @@ def test_a_session_holds_the_file_until_closed_and_each_cycle_has_its_pick_id(
 
 
 def test_the_scan_reads_back_only_to_the_last_finished_plan(tmp_path: Path) -> None:
-    path = tmp_path / "a.jsonl"
+    path = tmp_path / "free-a.jsonl"
     old_unfinished = {**PLAN_B, "pick_id": "old"}
     records = [old_unfinished] + [
         {"pick_id": f"p{n}", "event": event, "n": n}

@@ -10,8 +10,8 @@ from __future__ import annotations
 import dataclasses
 import io
 import json
-import uuid
 import math
+import uuid
 from pathlib import Path
 
 import numpy as np
