@@ -22,7 +22,6 @@ import logging
 import threading
 import time
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -41,6 +40,7 @@ from mocks.ur_controller.program import ControlScript, Registers
 from mocks.ur_controller.record import CommandRecord
 from mocks.ur_controller.rtde import RtdeServer
 from mocks.ur_controller.script_port import ScriptPort, register_offsets
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 log = logging.getLogger("mocks.ur_controller")
 
@@ -57,35 +57,6 @@ RUNTIME_STOPPED = 1
 RUNTIME_PLAYING = 2
 RUNTIME_PAUSING = 3
 RUNTIME_PAUSED = 4
-
-
-@dataclass(frozen=True)
-class ControllerSnapshot:
-    """The controller's state at one instant (units: rad, m, kg, s)."""
-
-    q: tuple[float, ...]  # target joints
-    flange_pose: tuple[float, ...]  # target
-    tcp_pose: tuple[float, ...]  # target, includes tcp_offset
-    actual_tcp_pose: tuple[float, ...]  # as RTDE reports it (== tcp_pose without tracking)
-    tcp_offset: tuple[float, ...]
-    robot_mode: int  # 7 RUNNING
-    safety_mode: int  # 1 NORMAL, 3 PROTECTIVE_STOP, 5 SAFEGUARD_STOP, 7 ROBOT_EMERGENCY_STOP
-    runtime_state: int  # 2 PLAYING, 1 STOPPED, 4 PAUSED
-    program_running: bool
-    remote_control: bool
-    moving: bool
-    steady: bool  # URScript is_steady()
-    standard_digital_out: int
-    tool_digital_out: int
-    configurable_digital_out: int
-    payload_kg: float
-    payload_cog: tuple[float, ...]  # m, tool flange frame
-    digital_inputs: int  # actual_digital_input_bits
-    gripper_position: int  # Robotiq POS, 0 open .. 255 closed
-    gripper_object: int  # Robotiq OBJ
-    part_present: bool  # the scripted part is between the fingers / at the gripper
-    time_s: float  # controller time
-    profile: str
 
 
 def _vector(values: Sequence[float], what: str) -> np.ndarray[Any, np.dtype[np.float64]]:
@@ -186,10 +157,10 @@ class Controller:
         self._rtde = RtdeServer(host, self, self.profile)
         listeners: list[Listener] = [self._rtde.listener]
         if self.profile.dashboard:
-            listeners.append(DashboardServer(host, self).listener)
+            listeners.append(DashboardServer(host, self, self.profile, self.model_name).listener)
         if self.profile.script_port:
             listeners.append(ScriptPort(host, self.run_program).listener)
-        listeners.append(RobotiqServer(host, self).listener)
+        listeners.append(RobotiqServer(host, self.gripper_request).listener)
         if ipaddress.ip_address(host).is_loopback:  # never offer the admin channel off the box
             listeners.append(AdminServer(host, self).listener)
         self._listeners = tuple(listeners)

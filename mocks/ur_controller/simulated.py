@@ -17,7 +17,8 @@ from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, ControllerSnapshot
+from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 # The folder holding the `mocks` package (the repository, or site-packages once installed).
 _IMPORT_ROOT = Path(__file__).resolve().parents[2]
