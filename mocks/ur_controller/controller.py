@@ -77,9 +77,10 @@ class Controller:
         self.lock = threading.RLock()
         self._cycle_s = 1.0 / self.profile.cycle_hz
         ur_model = kin.ALL_MODELS[self.model_name]
-        self.arm = Arm(ur_model, _start_q(options, ur_model), _vector(options.tcp_offset,
-                       "tcp_offset"), options.speed_factor, options.instant, self._cycle_s,
-                       tracking_seed=options.seed if options.tracking else None)
+        start_q = _start_q(options, ur_model)
+        tcp_offset = _vector(options.tcp_offset, "tcp_offset")
+        self.arm = Arm(ur_model, start_q, tcp_offset, options.speed_factor, options.instant,
+                       self._cycle_s, tracking_seed=options.seed if options.tracking else None)
         self.registers = Registers()
         self.gripper = Robotiq2F(time_scale=options.speed_factor, instant=options.instant,
                                  part_width_mm=_width(options.part_width_mm))
