@@ -5,7 +5,7 @@ See README.md in this folder. Never imports handeye_pick: the simulator must not
 maths with the code under test.
 """
 
-from mocks.ur_controller.controller import ControllerSnapshot
 from mocks.ur_controller.simulated import SimulatedController
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 __all__ = ["ControllerSnapshot", "SimulatedController"]

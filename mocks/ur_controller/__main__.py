@@ -15,11 +15,10 @@ import signal
 import sys
 from types import FrameType
 
-from mocks.ur_controller import admin
-from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, Controller
+from mocks.ur_controller import admin, options
+from mocks.ur_controller.controller import Controller
 from mocks.ur_controller.faults import parse_fault
-from mocks.ur_controller.kinematics import ALL_MODELS
-from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES
+from mocks.ur_controller.options import EXIT_CANNOT_LISTEN
 
 EXIT_NO_CONTROLLER = 3  # inject: nothing answers on the admin channel
 
@@ -37,54 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
         prog="python -m mocks.ur_controller",
         description="Simulated UR controller for ur_rtde. `python -m mocks.ur_controller inject "
                     "--help` injects a fault into a running one.")
-    parser.add_argument("--host", default="127.0.0.1", help="loopback address to serve on")
-    parser.add_argument("--profile", default=DEFAULT_PROFILE, choices=sorted(PROFILES),
-                        help="controller generation (default %(default)s)")
-    parser.add_argument("--model", choices=sorted(ALL_MODELS),
-                        help="arm (default: ur5e, or ur5 with --profile cb3)")
-    start = parser.add_mutually_exclusive_group()
-    start.add_argument("--initial-q", nargs=6, type=float, metavar="Q", help="joints (rad)")
-    start.add_argument("--initial-flange-pose", nargs=6, type=float, metavar="V",
-                       help="flange pose in base, UR vector (m, rad)")
-    parser.add_argument("--tcp-offset", nargs=6, type=float, metavar="V",
-                        default=[0.0] * 6, help="active TCP offset T_flange_tcp (m, rad)")
-    speed = parser.add_mutually_exclusive_group()
-    speed.add_argument("--speed-factor", type=float, default=1.0,
-                       help="run motions this many times faster than real time")
-    speed.add_argument("--instant", action="store_true", help="motions end within two cycles")
-    parser.add_argument("--tracking", action="store_true",
-                        help="actual joints lag the target by 3 cycles and carry measurement "
-                             "noise (default: actual == target exactly)")
-    parser.add_argument("--seed", type=int, default=0, help="noise seed for --tracking")
-    parser.add_argument("--record", metavar="FILE", help="append commands as JSON lines")
-    parser.add_argument("--record-motions", metavar="FILE",
-                        help="append each motion's start, end and time moving as JSON lines")
-    parser.add_argument("--inject", action="append", default=[], metavar="FAULT@WHEN",
-                        help="fault, e.g. protective-stop@move:2:0.5 (repeatable)")
-    parser.add_argument("--part-width-mm", type=float, metavar="W",
-                        help="a part W mm wide waits at the gripper (default: none)")
-    parser.add_argument("--feedback-input", nargs=2, type=int, metavar=("DO", "DI"),
-                        help="digital input bit DI reads true while output bit DO is on and "
-                             "the part is present (bits of actual_digital_*_bits, 0-17)")
-    parser.add_argument("--no-remote-control", action="store_true",
-                        help="start in local control (dashboard says remote control is off)")
-    parser.add_argument("--allow-non-loopback", action="store_true",
-                        help="allow a host address that is not loopback")
+    options.add_arguments(parser)
     parser.add_argument("--log-level", default="INFO", help="logging level on stderr")
     parser.add_argument("--serve-stdio", action="store_true", help=argparse.SUPPRESS)
     return parser
-
-
-def _controller(args: argparse.Namespace) -> Controller:
-    return Controller(
-        host=args.host, model=args.model, initial_q=args.initial_q,
-        initial_flange_pose=args.initial_flange_pose, tcp_offset=args.tcp_offset,
-        speed_factor=args.speed_factor, instant=args.instant, record_path=args.record,
-        inject=args.inject, remote_control=not args.no_remote_control,
-        allow_non_loopback=args.allow_non_loopback, profile=args.profile,
-        tracking=args.tracking, seed=args.seed, motion_record_path=args.record_motions,
-        part_width_mm=args.part_width_mm, feedback_input=args.feedback_input,
-    )
 
 
 def _serve_stdio(ctl: Controller) -> None:
@@ -126,7 +81,7 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=args.log_level.upper(), stream=sys.stderr,
                         format="%(asctime)s ur-sim %(levelname)s %(message)s")
     try:
-        ctl = _controller(args)
+        ctl = Controller(options.from_args(args))
     except ValueError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2

@@ -14,17 +14,39 @@ from __future__ import annotations
 import json
 import socket
 from dataclasses import asdict
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from mocks.ur_controller.net import Listener
-
-if TYPE_CHECKING:
-    from mocks.ur_controller.controller import Controller
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 ADMIN_PORT = 30999
 
 
-def answer(ctl: Controller, request: Any) -> dict[str, Any]:
+class AdminBackend(Protocol):
+    """What the admin requests read from and do to the controller."""
+
+    @property
+    def commands(self) -> list[dict[str, Any]]:
+        """A copy of the command record."""
+
+    @property
+    def motions(self) -> list[dict[str, Any]]:
+        """A copy of the motion record."""
+
+    def snapshot(self) -> ControllerSnapshot:
+        """The controller's state now."""
+
+    def inject(self, spec: str) -> None:
+        """ValueError for a bad spec."""
+
+    def set_remote_control(self, enabled: bool) -> None:
+        """ValueError on a profile without remote control."""
+
+    def set_part(self, width_mm: float | None) -> None:
+        """ValueError for a width outside 0..85 mm."""
+
+
+def answer(ctl: AdminBackend, request: Any) -> dict[str, Any]:
     """The reply to one decoded request: ok with a result, or not ok with a one-line error."""
     try:
         return {"ok": True, "result": _result(ctl, request)}
@@ -32,7 +54,7 @@ def answer(ctl: Controller, request: Any) -> dict[str, Any]:
         return {"ok": False, "error": str(exc) or type(exc).__name__}
 
 
-def _result(ctl: Controller, request: Any) -> Any:
+def _result(ctl: AdminBackend, request: Any) -> Any:
     if not isinstance(request, dict):
         raise ValueError(f"a request is a JSON object, got {request!r}")
     op = request.get("op")
@@ -55,7 +77,7 @@ def _result(ctl: Controller, request: Any) -> Any:
     raise ValueError(f"unknown request op {op!r}")
 
 
-def serve_line(ctl: Controller, line: str) -> str:
+def serve_line(ctl: AdminBackend, line: str) -> str:
     """One request line -> one reply line (no newline)."""
     try:
         request = json.loads(line)
@@ -67,7 +89,7 @@ def serve_line(ctl: Controller, line: str) -> str:
 class AdminServer:
     """Serves the admin channel on (host, ADMIN_PORT); host must be a loopback address."""
 
-    def __init__(self, host: str, controller: Controller):
+    def __init__(self, host: str, controller: AdminBackend):
         self._ctl = controller
         self.listener = Listener(host, ADMIN_PORT, "admin", self._serve)
 

@@ -21,30 +21,28 @@ import ipaddress
 import logging
 import threading
 import time
-from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass
-from pathlib import Path
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 
 from mocks.ur_controller import kinematics as kin
 from mocks.ur_controller.admin import AdminServer
-from mocks.ur_controller.arm import Arm, UnreachableError, default_q
+from mocks.ur_controller.arm import Arm, UnreachableError, Vector, default_q
 from mocks.ur_controller.dashboard import DashboardServer
 from mocks.ur_controller.faults import FaultSpec, parse_fault
 from mocks.ur_controller.gripper import Robotiq2F, RobotiqServer, answer
 from mocks.ur_controller.net import Listener
+from mocks.ur_controller.options import ControllerOptions
 from mocks.ur_controller.outputs import Io, Modes, OutputTable
-from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES, Profile
+from mocks.ur_controller.profiles import PROFILES, Profile
 from mocks.ur_controller.program import ControlScript, Registers
 from mocks.ur_controller.record import CommandRecord
 from mocks.ur_controller.rtde import RtdeServer
 from mocks.ur_controller.script_port import ScriptPort, register_offsets
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 log = logging.getLogger("mocks.ur_controller")
-
-EXIT_CANNOT_LISTEN = 3  # command-line exit status: a port is taken or the address is not local
 
 ROBOT_MODE_POWER_OFF = 3
 ROBOT_MODE_IDLE = 5
@@ -59,36 +57,7 @@ RUNTIME_PAUSING = 3
 RUNTIME_PAUSED = 4
 
 
-@dataclass(frozen=True)
-class ControllerSnapshot:
-    """The controller's state at one instant (units: rad, m, kg, s)."""
-
-    q: tuple[float, ...]  # target joints
-    flange_pose: tuple[float, ...]  # target
-    tcp_pose: tuple[float, ...]  # target, includes tcp_offset
-    actual_tcp_pose: tuple[float, ...]  # as RTDE reports it (== tcp_pose without tracking)
-    tcp_offset: tuple[float, ...]
-    robot_mode: int  # 7 RUNNING
-    safety_mode: int  # 1 NORMAL, 3 PROTECTIVE_STOP, 5 SAFEGUARD_STOP, 7 ROBOT_EMERGENCY_STOP
-    runtime_state: int  # 2 PLAYING, 1 STOPPED, 4 PAUSED
-    program_running: bool
-    remote_control: bool
-    moving: bool
-    steady: bool  # URScript is_steady()
-    standard_digital_out: int
-    tool_digital_out: int
-    configurable_digital_out: int
-    payload_kg: float
-    payload_cog: tuple[float, ...]  # m, tool flange frame
-    digital_inputs: int  # actual_digital_input_bits
-    gripper_position: int  # Robotiq POS, 0 open .. 255 closed
-    gripper_object: int  # Robotiq OBJ
-    part_present: bool  # the scripted part is between the fingers / at the gripper
-    time_s: float  # controller time
-    profile: str
-
-
-def _vector(values: Sequence[float], what: str) -> np.ndarray[Any, np.dtype[np.float64]]:
+def _vector(values: Sequence[float], what: str) -> Vector:
     arr = np.asarray(values, dtype=np.float64)
     if arr.shape != (6,) or not np.all(np.isfinite(arr)):
         raise ValueError(f"Controller: {what} must be 6 finite numbers, got {values!r}")
@@ -102,72 +71,29 @@ class Controller:
     another process: tests use SimulatedController, which runs this class in a child process.
     """
 
-    def __init__(
-        self,
-        host: str = "127.0.0.1",
-        model: str | None = None,
-        initial_q: Sequence[float] | None = None,
-        initial_flange_pose: Sequence[float] | None = None,
-        tcp_offset: Sequence[float] = (0, 0, 0, 0, 0, 0),
-        speed_factor: float = 1.0,
-        instant: bool = False,
-        record_path: str | Path | None = None,
-        inject: Iterable[str] = (),
-        remote_control: bool = True,
-        allow_non_loopback: bool = False,
-        profile: str = DEFAULT_PROFILE,
-        tracking: bool = False,
-        seed: int = 0,
-        motion_record_path: str | Path | None = None,
-        part_width_mm: float | None = None,
-        feedback_input: Sequence[int] | None = None,
-    ):
-        if not ipaddress.ip_address(host).is_loopback and not allow_non_loopback:
-            raise ValueError(f"Controller: host {host!r} is not a loopback address; "
-                             f"pass --allow-non-loopback to serve on it")
-        if profile not in PROFILES:
-            raise ValueError(f"Controller: profile must be one of {sorted(PROFILES)}, "
-                             f"got {profile!r}")
-        self.profile: Profile = PROFILES[profile]
-        model = self.profile.default_model if model is None else model
-        if model not in self.profile.models:
-            raise ValueError(f"Controller: model must be one of {list(self.profile.models)} "
-                             f"for the {profile} profile, got {model!r}")
-        if not speed_factor > 0:
-            raise ValueError(f"Controller: speed_factor must be > 0, got {speed_factor}")
-        if tracking and instant:
-            raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
-                             "instant move ends at full speed, far ahead of a lagging arm")
-        if initial_q is not None and initial_flange_pose is not None:
-            raise ValueError("Controller: give initial_q or initial_flange_pose, not both")
-        ur_model = kin.ALL_MODELS[model]
-        q = default_q()
-        if initial_q is not None:
-            q = _vector(initial_q, "initial_q")
-        elif initial_flange_pose is not None:
-            T = kin.pose_to_matrix(_vector(initial_flange_pose, "initial_flange_pose"))
-            solution = kin.inverse(ur_model, T, q)
-            if solution is None:
-                raise ValueError(f"Controller: initial_flange_pose {initial_flange_pose}"
-                                 f" is unreachable for {model}")
-            q = solution
-        self.host = host
-        self.model_name = model
+    def __init__(self, options: ControllerOptions):
+        self.profile, self.model_name = _profile_and_model(options)
+        self.host = options.host
         self.lock = threading.RLock()
-        self.arm = Arm(ur_model, q, _vector(tcp_offset, "tcp_offset"), speed_factor, instant,
-                       1.0 / self.profile.cycle_hz, tracking_seed=seed if tracking else None)
+        self._cycle_s = 1.0 / self.profile.cycle_hz
+        ur_model = kin.ALL_MODELS[self.model_name]
+        start_q = _start_q(options, ur_model)
+        tcp_offset = _vector(options.tcp_offset, "tcp_offset")
+        self.arm = Arm(ur_model, start_q, tcp_offset, options.speed_factor, options.instant,
+                       self._cycle_s, tracking_seed=options.seed if options.tracking else None)
         self.registers = Registers()
-        self.gripper = Robotiq2F(time_scale=speed_factor, instant=instant,
-                                 part_width_mm=_width(part_width_mm))
-        self._feedback = _feedback_bits(feedback_input)
-        self._record = CommandRecord(record_path)
-        self._motions = CommandRecord(motion_record_path)
-        self._faults = [parse_fault(spec) for spec in inject]
+        self.gripper = Robotiq2F(time_scale=options.speed_factor, instant=options.instant,
+                                 part_width_mm=_width(options.part_width_mm))
+        self._feedback = _feedback_bits(options.feedback_input)
+        self._record = CommandRecord(options.record_path)
+        self._motions = CommandRecord(options.motion_record_path)
+        self._faults = [parse_fault(spec) for spec in options.inject]
+        # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | None = None
         self._paused = False
         self._robot_mode = ROBOT_MODE_RUNNING
         self._safety_mode = SAFETY_NORMAL
-        self._remote_control = remote_control
+        self._remote_control = options.remote_control
         self._refuse_next_start = False
         self._refuse_next_move = False
         self._stall_until_s = 0.0
@@ -177,24 +103,27 @@ class Controller:
         self._tool_do = 0
         self._analog_out = [0.0, 0.0]
         self._analog_io_types = 0
-        self._cycle_s = 1.0 / self.profile.cycle_hz
         self._time_s = 0.0
         self._output_table = OutputTable(self.profile.output_types)
         self._outputs: Mapping[str, object] = {}
         self._stopping = threading.Event()
         self._loop: threading.Thread | None = None
-        self._rtde = RtdeServer(host, self, self.profile)
-        listeners: list[Listener] = [self._rtde.listener]
-        if self.profile.dashboard:
-            listeners.append(DashboardServer(host, self).listener)
-        if self.profile.script_port:
-            listeners.append(ScriptPort(host, self.run_program).listener)
-        listeners.append(RobotiqServer(host, self).listener)
-        if ipaddress.ip_address(host).is_loopback:  # never offer the admin channel off the box
-            listeners.append(AdminServer(host, self).listener)
-        self._listeners = tuple(listeners)
+        self._rtde = RtdeServer(options.host, self, self.profile)
+        self._listeners = self._servers(options.host)
         with self.lock:
             self._publish()
+
+    def _servers(self, host: str) -> tuple[Listener, ...]:
+        """Every port's listener: the profile's, the Robotiq socket, the admin channel."""
+        listeners: list[Listener] = [self._rtde.listener]
+        if self.profile.dashboard:
+            listeners.append(DashboardServer(host, self, self.profile, self.model_name).listener)
+        if self.profile.script_port:
+            listeners.append(ScriptPort(host, self.run_program).listener)
+        listeners.append(RobotiqServer(host, self.gripper_request).listener)
+        if ipaddress.ip_address(host).is_loopback:  # never offer the admin channel off the box
+            listeners.append(AdminServer(host, self).listener)
+        return tuple(listeners)
 
     # --- lifetime ---------------------------------------------------------------------------
 
@@ -578,6 +507,44 @@ class Controller:
                 (self._analog_out[0], self._analog_out[1]), self._analog_io_types)
         self._outputs = self._output_table.build(self._time_s, self.arm, modes, io,
                                                  self.registers)
+
+
+def _profile_and_model(options: ControllerOptions) -> tuple[Profile, str]:
+    """The profile and the arm's model name; ValueError for options that do not fit together."""
+    if not ipaddress.ip_address(options.host).is_loopback and not options.allow_non_loopback:
+        raise ValueError(f"Controller: host {options.host!r} is not a loopback address; "
+                         f"pass --allow-non-loopback to serve on it")
+    if options.profile not in PROFILES:
+        raise ValueError(f"Controller: profile must be one of {sorted(PROFILES)}, "
+                         f"got {options.profile!r}")
+    profile = PROFILES[options.profile]
+    model = profile.default_model if options.model is None else options.model
+    if model not in profile.models:
+        raise ValueError(f"Controller: model must be one of {list(profile.models)} "
+                         f"for the {profile.name} profile, got {model!r}")
+    if not options.speed_factor > 0:
+        raise ValueError(f"Controller: speed_factor must be > 0, got {options.speed_factor}")
+    if options.tracking and options.instant:
+        raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
+                         "instant move ends at full speed, far ahead of a lagging arm")
+    if options.initial_q is not None and options.initial_flange_pose is not None:
+        raise ValueError("Controller: give initial_q or initial_flange_pose, not both")
+    return profile, model
+
+
+def _start_q(options: ControllerOptions, model: kin.URModel) -> Vector:
+    """The joints the arm starts at: initial_q, the IK solution nearest the default joints for
+    initial_flange_pose, or the default joints."""
+    if options.initial_q is not None:
+        return _vector(options.initial_q, "initial_q")
+    if options.initial_flange_pose is None:
+        return default_q()
+    T = kin.pose_to_matrix(_vector(options.initial_flange_pose, "initial_flange_pose"))
+    solution = kin.inverse(model, T, default_q())
+    if solution is None:
+        raise ValueError(f"Controller: initial_flange_pose {options.initial_flange_pose}"
+                         f" is unreachable for {model.name}")
+    return solution
 
 
 def _width(width_mm: float | None) -> float | None:

@@ -10,12 +10,11 @@ does not have is answered like an unknown one: `Could not understand: '<request>
 from __future__ import annotations
 
 import socket
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from mocks.ur_controller.net import Listener
-
-if TYPE_CHECKING:
-    from mocks.ur_controller.controller import Controller
+from mocks.ur_controller.profiles import Profile
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 DASHBOARD_PORT = 29999
 BANNER = "Connected: Universal Robots Dashboard Server"
@@ -62,13 +61,53 @@ def command_of(request: str) -> str | None:
     return max(fitting, key=len) if fitting else None
 
 
-class DashboardServer:
-    """Serves the dashboard protocol on (host, 29999) for the controller."""
+class DashboardBackend(Protocol):
+    """What the dashboard server reads from and does to the controller."""
 
-    def __init__(self, host: str, controller: Controller):
+    def snapshot(self) -> ControllerSnapshot:
+        """The modes, program state and remote control flag now."""
+
+    def program_name(self) -> str:
+        """The running program's name, `<unnamed>` when none runs."""
+
+    def stop_program(self, reason: str) -> None:
+        """Stop the running program, if any."""
+
+    def pause_program(self) -> bool:
+        """False when no program is playing."""
+
+    def resume_program(self) -> bool:
+        """False unless paused with safety NORMAL."""
+
+    def power_on(self) -> bool:
+        """False unless powered off with safety NORMAL."""
+
+    def power_off(self) -> None:
+        """Stop the program and power off."""
+
+    def release_brakes(self) -> bool:
+        """False unless IDLE."""
+
+    def unlock_protective_stop(self) -> bool:
+        """False unless in a protective stop."""
+
+    def close_safety_popup(self) -> None:
+        """Acknowledge a safeguard stop."""
+
+    def restart_safety(self) -> None:
+        """Clear any safety stop into power off."""
+
+
+class DashboardServer:
+    """Serves the dashboard protocol on (host, 29999) for the controller, as `profile` has it,
+    for an arm of `model_name`."""
+
+    def __init__(self, host: str, controller: DashboardBackend, profile: Profile,
+                 model_name: str):
         self._ctl = controller
-        version = controller.profile.version
-        self._version: Version = (version[0], version[1])
+        self._profile = profile
+        self._model_name = model_name
+        self._version: Version = (profile.version[0], profile.version[1])
         self._loaded_program = ""
         self._user_role = "PROGRAMMER"
         self._operational_mode = "NONE"
@@ -102,17 +141,17 @@ class DashboardServer:
         ctl = self._ctl
         snap = ctl.snapshot()
         argument = request[len(command):].strip()
-        if (command in _REMOTE_ONLY and ctl.profile.remote_control_mode
+        if (command in _REMOTE_ONLY and self._profile.remote_control_mode
                 and not snap.remote_control):
             return _LOCAL_MODE_REPLY
         if command == "PolyscopeVersion":
-            return f"URSoftware {ctl.profile.version_text} (Jul 12 2023)"
+            return f"URSoftware {self._profile.version_text} (Jul 12 2023)"
         if command == "version":
-            return ctl.profile.version_text
+            return self._profile.version_text
         if command == "get serial number":
             return SERIAL_NUMBER
         if command == "get robot model":
-            return ctl.model_name.upper().removesuffix("E")
+            return self._model_name.upper().removesuffix("E")
         if command == "is in remote control":
             return "true" if snap.remote_control else "false"
         if command == "robotmode":

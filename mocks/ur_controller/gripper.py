@@ -22,13 +22,10 @@ from __future__ import annotations
 
 import logging
 import socket
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 from mocks.ur_controller.net import Listener
-
-if TYPE_CHECKING:
-    from mocks.ur_controller.controller import Controller
 
 log = logging.getLogger("mocks.ur_controller")
 
@@ -157,16 +154,18 @@ class Robotiq2F:
 
 
 class RobotiqServer:
-    """Serves the URCap's ASCII protocol on (host, 63352) for the controller's gripper."""
+    """Serves the URCap's ASCII protocol on (host, 63352): each request line goes to
+    `gripper_request` (the controller's, which holds its lock around `answer`), whose reply,
+    unless None, goes back."""
 
-    def __init__(self, host: str, controller: Controller):
-        self._ctl = controller
+    def __init__(self, host: str, gripper_request: Callable[[str], str | None]):
+        self._gripper_request = gripper_request
         self.listener = Listener(host, ROBOTIQ_PORT, "robotiq", self._serve)
 
     def _serve(self, sock: socket.socket) -> None:
         with sock.makefile("r", encoding="ascii", errors="replace", newline="\n") as reader:
             for line in reader:
-                reply = self._ctl.gripper_request(line.strip())
+                reply = self._gripper_request(line.strip())
                 if reply is not None:
                     sock.sendall((reply + "\n").encode("ascii"))
 

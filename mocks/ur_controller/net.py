@@ -1,8 +1,8 @@
 """A TCP listener that serves each client in its own thread and can drop every client at once.
 
-Used for the three ports the simulated controller serves (RTDE 30004, dashboard 29999,
-script 30003). A connection drop (fault `drop-connection`) closes every client socket while the
-listening socket stays open, like a network blip.
+Used for every port the simulated controller serves (RTDE 30004, dashboard 29999, script 30003,
+Robotiq 63352, admin 30999). A connection drop (fault `drop-connection`) closes every client
+socket while the listening socket stays open, like a network blip.
 """
 
 from __future__ import annotations

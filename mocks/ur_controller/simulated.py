@@ -13,11 +13,11 @@ import os
 import subprocess
 import sys
 import threading
-from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
-from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN, ControllerSnapshot
+from mocks.ur_controller.options import EXIT_CANNOT_LISTEN, ControllerOptions, to_argv
+from mocks.ur_controller.snapshot import ControllerSnapshot
 
 # The folder holding the `mocks` package (the repository, or site-packages once installed).
 _IMPORT_ROOT = Path(__file__).resolve().parents[2]
@@ -27,59 +27,19 @@ _START_TIMEOUT_S = 30.0
 class SimulatedController:
     """A simulated UR controller on `host`; a context manager (start on enter, stop on exit).
 
-    Arguments are those of the command line (see README.md): poses are UR vectors (m, rad),
-    joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds `FAULT@WHEN` specs, `profile` is
-    e-series (default), cb3 or polyscope-x, `tracking` adds tracking lag and measurement noise,
-    `part_width_mm` puts a part at the gripper, `feedback_input` is (output bit, input bit).
+    Keyword arguments are ControllerOptions' fields, those of the command line (see README.md):
+    poses are UR vectors (m, rad), joints in rad, `tcp_offset` is T_flange_tcp, `inject` holds
+    `FAULT@WHEN` specs, `profile` is a name in profiles.py (default e-series), `tracking` adds
+    tracking lag and measurement noise, `part_width_mm` puts a part at the gripper,
+    `feedback_input` is (output bit, input bit). An unknown name is a TypeError here; options
+    that do not fit together are refused by the child, at start().
     """
 
-    def __init__(
-        self,
-        host: str = "127.0.0.1",
-        model: str | None = None,
-        initial_q: Sequence[float] | None = None,
-        initial_flange_pose: Sequence[float] | None = None,
-        tcp_offset: Sequence[float] = (0, 0, 0, 0, 0, 0),
-        speed_factor: float = 1.0,
-        instant: bool = False,
-        record_path: str | Path | None = None,
-        inject: Iterable[str] = (),
-        remote_control: bool = True,
-        allow_non_loopback: bool = False,
-        profile: str = "e-series",
-        tracking: bool = False,
-        seed: int = 0,
-        motion_record_path: str | Path | None = None,
-        part_width_mm: float | None = None,
-        feedback_input: Sequence[int] | None = None,
-    ):
+    def __init__(self, host: str = "127.0.0.1", **options: Any):
+        controller_options = ControllerOptions(host=host, **options)
         self.host = host
-        self.profile = profile
-        argv = ["--host", host, "--profile", profile, "--tcp-offset", *_numbers(tcp_offset)]
-        if model is not None:
-            argv += ["--model", model]
-        if tracking:
-            argv += ["--tracking", "--seed", str(seed)]
-        if motion_record_path is not None:
-            argv += ["--record-motions", str(motion_record_path)]
-        if part_width_mm is not None:
-            argv += ["--part-width-mm", repr(float(part_width_mm))]
-        if feedback_input is not None:
-            argv += ["--feedback-input", *(str(int(b)) for b in feedback_input)]
-        if initial_q is not None:
-            argv += ["--initial-q", *_numbers(initial_q)]
-        if initial_flange_pose is not None:
-            argv += ["--initial-flange-pose", *_numbers(initial_flange_pose)]
-        argv += ["--instant"] if instant else ["--speed-factor", repr(float(speed_factor))]
-        if record_path is not None:
-            argv += ["--record", str(record_path)]
-        for spec in inject:
-            argv += ["--inject", spec]
-        if not remote_control:
-            argv.append("--no-remote-control")
-        if allow_non_loopback:
-            argv.append("--allow-non-loopback")
-        self._argv = argv
+        self.profile = controller_options.profile
+        self._argv = to_argv(controller_options)
         self._process: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
 
@@ -193,7 +153,3 @@ class SimulatedController:
                                f"{timeout_s} s")
         return lines[0]
 
-
-def _numbers(values: Iterable[float]) -> list[str]:
-    """Command-line spelling of floats that round-trips exactly."""
-    return [repr(float(v)) for v in values]

@@ -13,6 +13,7 @@ import pytest
 
 from mocks.ur_controller import SimulatedController
 from mocks.ur_controller.controller import Controller
+from mocks.ur_controller.options import ControllerOptions
 from tests.conftest import next_loopback_host
 
 
@@ -58,7 +59,7 @@ def test_inject_without_a_controller_fails_clearly(tmp_path: Path) -> None:
 
 
 def test_a_controller_never_offers_the_admin_channel_off_loopback() -> None:
-    ctl = Controller(host="10.1.2.3", allow_non_loopback=True)  # constructed, never started
+    ctl = Controller(ControllerOptions(host="10.1.2.3", allow_non_loopback=True))  # never started
     assert ctl.ports == {"rtde": 30004, "dashboard": 29999, "script": 30003, "robotiq": 63352}
 
 

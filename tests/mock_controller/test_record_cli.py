@@ -14,8 +14,8 @@ import rtde_control
 import rtde_receive
 
 from mocks.ur_controller import SimulatedController
-from mocks.ur_controller.controller import EXIT_CANNOT_LISTEN
 from mocks.ur_controller.faults import FaultSpec, parse_fault
+from mocks.ur_controller.options import EXIT_CANNOT_LISTEN
 from tests.conftest import next_loopback_host
 from tests.mock_controller.helpers import HOME_Q
 
