@@ -59,7 +59,9 @@ def test_timestamp_is_iso_utc_and_now(tmp_path: Path) -> None:
 
 
 def test_pick_ids_differ_between_logs_unless_given(tmp_path: Path) -> None:
-    assert AuditLog(tmp_path / "free-a.jsonl").pick_id != AuditLog(tmp_path / "free-a.jsonl").pick_id
+    assert (
+        AuditLog(tmp_path / "free-a.jsonl").pick_id != AuditLog(tmp_path / "free-a.jsonl").pick_id
+    )
     log = AuditLog(tmp_path / "free-a.jsonl", pick_id="touch-7")
     log.append({"event": "plan"})
     assert _lines(tmp_path / "free-a.jsonl")[0]["pick_id"] == "touch-7"
