@@ -1,8 +1,8 @@
 """The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
 
-Run as a script, ``python .../robot/worker.py FD HOST WATCHDOG_S [--io]``, by ``URRtdeArm``
-(WATCHDOG_S: see ``WATCHDOG_KICKS_PER_WINDOW``): FD is this end
-of a socket pair used as a ``multiprocessing.connection.Connection``. As a script it imports
+Run as a script, ``python .../robot/ur/worker.py FD HOST WATCHDOG_S [--io]``, by
+robot/ur/child.py (WATCHDOG_S: see ``WATCHDOG_KICKS_PER_WINDOW``): FD is this end of a socket
+pair used as a ``multiprocessing.connection.Connection``. As a script it imports
 only the standard library and ur_rtde (importing the package would load numpy, scipy and numba,
 half a second per connection), so everything it sends is plain data: dicts, lists, numbers.
 
