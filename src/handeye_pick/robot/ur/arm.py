@@ -42,7 +42,11 @@ from handeye_pick.robot.port import (
     mode_name,
 )
 from handeye_pick.robot.ur.child import Child
-from handeye_pick.robot.ur.dashboard import stop_program_until_confirmed
+from handeye_pick.robot.ur.dashboard import (
+    has_remote_control_command,
+    polyscope_version,
+    stop_program_until_confirmed,
+)
 from handeye_pick.robot.ur.worker import Sample
 
 log = logging.getLogger(__name__)
@@ -142,6 +146,9 @@ class URRtdeArm:
             call_timeout_s=call_timeout_s,
         )
         self.controller_version = self._child.controller_version
+        self._has_remote_control = has_remote_control_command(
+            polyscope_version(self.controller_version)
+        )
         try:
             self.tcp_offset()
         except BaseException:
@@ -167,7 +174,7 @@ class URRtdeArm:
     def status(self) -> RobotStatus:
         """Controller state from the latest RTDE sample plus the dashboard's remote-control flag."""
         sample = self._sample("sample")
-        remote = bool(self._child.call("remote_control"))
+        remote = self._remote_control()
         return RobotStatus(
             controller_version=self.controller_version,
             robot_mode=sample.robot_mode,
@@ -307,7 +314,7 @@ class URRtdeArm:
     ) -> Transform:
         """Send one async move and watch it to its end (see ``move_linear``)."""
         start = self._sample("sample")
-        if not bool(self._child.call("remote_control")):
+        if not self._remote_control():
             raise SafetyRefusal(
                 f"{kind.name} on {self.host} refused, nothing sent: the robot was switched to "
                 "local control; switch the teach pendant back to Remote Control"
@@ -392,6 +399,13 @@ class URRtdeArm:
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""
         self._child.close()
+
+    def _remote_control(self) -> bool:
+        """The pendant's Remote Control mode, asked through the session's dashboard client;
+        True without asking on a controller that has no such mode (robot/ur/dashboard.py)."""
+        if not self._has_remote_control:
+            return True
+        return bool(self._child.call("remote_control"))
 
     # --- motion watch ------------------------------------------------------------------------
 

@@ -5,7 +5,9 @@ One line out, one line back, every wait bounded: ``status`` reads the controller
 (robot/ur/readout.py) and a session whose RTDE link is lost stops the program through it
 (``stop_program_until_confirmed``), with no ur_rtde code that could reconnect or hang
 (docs/ur-rtde.md, "Dashboard server"). The session's own dashboard queries go through ur_rtde's
-DashboardClient in the child process (robot/ur/worker.py). Standard library only.
+DashboardClient in the child process (robot/ur/worker.py); the parent applies
+``has_remote_control_command`` before it asks, so the session and ``status`` read Remote Control
+by the same rule. Standard library only.
 """
 
 from __future__ import annotations
