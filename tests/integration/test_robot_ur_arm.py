@@ -241,11 +241,11 @@ def test_ctrl_c_right_after_a_message_keeps_answers_with_their_calls(
     tcp_offset = (0.0, 0.0, 0.12, 0.0, 0.0, 0.3)
     ctl = sim_controller(tcp_offset=tcp_offset, instant=True)
     with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S, call_timeout_s=3.0) as arm:
-        connection = arm._conn
-        arm._conn = _CtrlCAt(connection, method)
+        connection = arm._child._conn
+        arm._child._conn = _CtrlCAt(connection, method)
         with pytest.raises(KeyboardInterrupt):
             arm.tcp_pose()
-        arm._conn = connection
+        arm._child._conn = connection
         np.testing.assert_allclose(arm.tcp_offset(), ur_pose_to_matrix(list(tcp_offset)), atol=1e-9)
         assert arm.status().runtime_state == RuntimeState.PLAYING  # the session goes on
 
@@ -311,7 +311,7 @@ def test_a_crashed_ur_rtde_process_is_a_connection_error(sim_controller: SimFact
     # What a segfault in ur_rtde's reconnect loop looks like from here.
     ctl = sim_controller(instant=True)
     with URRtdeArm(ctl.host, watchdog_s=TEST_WATCHDOG_S) as arm:
-        arm._process.kill()  # the child that holds ur_rtde
+        arm._child._process.kill()  # the child that holds ur_rtde
         with pytest.raises(RobotConnectionError, match=r"died|closed its pipe|is gone"):
             arm.tcp_pose()
         with pytest.raises(RobotConnectionError, match="session is over"):

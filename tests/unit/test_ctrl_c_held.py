@@ -7,7 +7,7 @@ import signal
 
 import pytest
 
-from handeye_pick.robot.ur.arm import _ctrl_c_held
+from handeye_pick.robot.ur.child import _ctrl_c_held
 
 
 def _message_with_ctrl_c(steps: list[str]) -> None:

@@ -1,11 +1,12 @@
-"""RobotArm over ur_rtde 1.6.5, with ur_rtde contained in a child process (robot/ur/worker.py).
+"""RobotArm over ur_rtde 1.6.5, with ur_rtde contained in a child process (robot/ur/child.py).
 
 One ``URRtdeArm`` is one session: receive + control interfaces (+ IO when a gripper output is
 configured) + a dashboard client, opened once by the constructor and closed by ``close()`` or the
 ``with`` block. Every ur_rtde result is checked: a ``False`` becomes ``RobotFault`` carrying the
 controller's safety mode, runtime state and robot mode; a lost link, a dead child or a call that
-does not answer in time becomes ``RobotConnectionError``, after which the session is dead. It never
-reconnects and never re-issues a motion.
+does not answer in time becomes ``RobotConnectionError``, after which the session is dead and the
+program is stopped through the dashboard (robot/ur/dashboard.py). It never reconnects and never
+re-issues a motion. What ur_rtde's own failures mean for the operator is robot/ur/advice.py.
 
 Frames and units as in robot/port.py: 4x4 float64 transforms in metres; ``T_base_tcp`` includes
 the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_tcp)``.
@@ -13,21 +14,12 @@ the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_
 
 from __future__ import annotations
 
-import contextlib
 import logging
 import math
-import signal
-import socket
-import subprocess
-import sys
-import threading
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from multiprocessing.connection import Connection
-from pathlib import Path
 from types import TracebackType
-from typing import IO
 
 import numpy as np
 
@@ -49,12 +41,16 @@ from handeye_pick.robot.port import (
     SafetyMode,
     mode_name,
 )
-from handeye_pick.robot.ur.readout import DASHBOARD_PORT
-from handeye_pick.robot.ur.worker import Failure, Sample
+from handeye_pick.robot.ur.child import Child
+from handeye_pick.robot.ur.dashboard import (
+    has_remote_control_command,
+    polyscope_version,
+    stop_program_until_confirmed,
+)
+from handeye_pick.robot.ur.worker import Sample
 
 log = logging.getLogger(__name__)
 
-WORKER_SCRIPT = Path(__file__).with_name("worker.py")
 POLL_PERIOD_S = 0.004
 """How often a running move is watched: two RTDE cycles at 500 Hz."""
 REACHED_TOLERANCE_M = 0.001
@@ -72,10 +68,6 @@ STOP_TIMEOUT_S = 5.0
 does not leave the arm moving: while the ur_rtde process waits for the stopL answer it feeds no
 watchdog, so the controller stops the program after ``watchdog_s`` anyway. (2 s was too short
 for a simulated controller descheduled on a busy machine, which then answered late.)"""
-DASHBOARD_STOP_DEADLINE_S = 15.0
-"""How long a stop through the dashboard is retried after the RTDE link is lost (a controller
-that stalled for 8 s still gets its stop once it answers again)."""
-DASHBOARD_RETRY_S = 0.25
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 OUTPUT_CONFIRM_TIMEOUT_S = 0.5
@@ -83,50 +75,6 @@ OUTPUT_CONFIRM_TIMEOUT_S = 0.5
 output value in its RTDE data within this time (250 cycles at 500 Hz)."""
 TOOL_OUTPUT_FIRST_BIT = 16
 """Tool digital outputs (inputs) start at bit 16 of ``actual_digital_output_bits`` (``_input_``)."""
-
-# Parts of ur_rtde's RuntimeError texts (1.6.5) and what to tell the operator instead.
-_CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
-    (
-        "remote control",
-        "the robot is in Local mode: switch the teach pendant to Remote Control (enable it under "
-        "Settings > System > Remote Control first), then retry",
-    ),
-    (
-        "already in use",
-        "the RTDE input registers are held by another RTDE client (a URCap such as External "
-        "Control, a ROS driver, another script, or an EtherNet/IP, PROFINET or MODBUS adapter "
-        "enabled on the robot): stop or disable it, then retry",
-    ),
-    (
-        "dashboard server",
-        "the controller's dashboard server (port 29999) does not answer. PolyScope X has none, "
-        "and ur_rtde 1.6.5 needs it to run its control script, so handeye-pick cannot drive a "
-        "PolyScope X controller; on PolyScope 5 check that the dashboard server is enabled "
-        "(Settings > Security > Services)",
-    ),
-    (
-        "Could not connect",
-        "nothing answers on port 30004: check the address, the network cable and that the "
-        "controller is booted",
-    ),
-    (
-        "control script",
-        "the controller did not start ur_rtde's control script: check on the pendant that the "
-        "robot is powered on, brakes released, no protective stop or popup is pending",
-    ),
-)
-
-
-# Why a controller refuses to start a program, and what the operator does about it.
-_STOP_ADVICE: dict[int, str] = {
-    SafetyMode.PROTECTIVE_STOP: "a protective stop is active: remove its cause, then press "
-    "'Enable robot' on the pendant (nothing unlocks it automatically)",
-    SafetyMode.ROBOT_EMERGENCY_STOP: "an emergency stop is active: make the cell safe, release "
-    "the emergency stop button, then power on and release the brakes",
-    SafetyMode.SYSTEM_EMERGENCY_STOP: "a system emergency stop is active: make the cell safe, "
-    "reset it, then power on and release the brakes",
-    SafetyMode.SAFEGUARD_STOP: "a safeguard stop is active: close and reset the safeguard",
-}
 
 
 @dataclass(frozen=True)
@@ -139,67 +87,6 @@ class _MoveKind:
     target: list[float]
     speed: float
     accel: float
-
-
-HELD_SIGNALS = (signal.SIGINT, signal.SIGTERM)
-
-
-@contextlib.contextmanager
-def _ctrl_c_held() -> Iterator[None]:
-    """Hold Ctrl-C (and SIGTERM) while one message crosses the pipe to the ur_rtde process.
-
-    A KeyboardInterrupt (or ``Terminated``) between the bytes of a message would desynchronise
-    the pipe, and the stopL that the signal is about to send would be lost. A held signal is
-    delivered as soon as the message is through (a few microseconds). Only the main thread
-    receives signals.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    held: list[int] = []
-    previous = {
-        signum: signal.signal(signum, lambda received, _frame: held.append(received))
-        for signum in HELD_SIGNALS
-    }
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, handler)
-        for received in held:
-            handler = previous[signal.Signals(received)]
-            if callable(handler):
-                handler(received, None)
-            elif handler == signal.SIG_DFL and received == signal.SIGTERM:
-                signal.raise_signal(received)  # no handler of ours: die as SIGTERM would have
-
-
-def dashboard_stop(host: str, timeout_s: float = 2.0) -> tuple[bool, str]:
-    """Stop the running program through a fresh dashboard connection (plain socket, bounded).
-
-    The last resort once the RTDE link is gone: no ur_rtde code, so nothing can reconnect or
-    hang. Returns whether the controller confirmed that no program runs (``Stopped``, or
-    ``programState`` answering ``STOPPED`` when the stop itself was refused) and its answers;
-    raises ``OSError`` on a socket failure or timeout.
-    """
-    with socket.create_connection((host, DASHBOARD_PORT), timeout=timeout_s) as sock:
-        reader = sock.makefile("r", encoding="ascii", newline="\n")
-        reader.readline()  # banner
-        sock.sendall(b"stop\n")
-        reply = reader.readline().strip()
-        if reply.lower().startswith("stopped"):
-            return True, reply
-        sock.sendall(b"programState\n")
-        state = reader.readline().strip()
-        return state.upper().startswith("STOPPED"), f"{reply}; programState: {state}"
-
-
-def _log_lines(stream: IO[bytes] | None, host: str) -> None:
-    """ur_rtde prints to stdout/stderr; keep that off our stdout (--json) and in the debug log."""
-    if stream is None:
-        return
-    for raw in stream:
-        log.debug("ur_rtde %s: %s", host, raw.decode(errors="replace").rstrip())
 
 
 def _fmt_pose(pose: list[float]) -> str:
@@ -250,40 +137,18 @@ class URRtdeArm:
         call_timeout_s: float = 6.0,
     ) -> None:
         self.host = host
-        self._call_timeout_s = call_timeout_s
         self._stop_decel_mps2 = stop_decel_mps2
-        self._pending_reply = False
-        self._dead_reason: str | None = None
-        parent_socket, child_socket = socket.socketpair()
-        # A plain subprocess, not multiprocessing: no re-import of the caller's __main__, and
-        # its own session, so a Ctrl-C at the terminal reaches only this process, which then
-        # still has a working child to send stopL through.
-        self._process = subprocess.Popen(
-            [sys.executable, str(WORKER_SCRIPT), str(child_socket.fileno()), host, str(watchdog_s)]
-            + (["--io"] if with_io else []),
-            pass_fds=(child_socket.fileno(),),
-            stdin=subprocess.DEVNULL,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            start_new_session=True,
+        self._child = Child(
+            host,
+            with_io=with_io,
+            watchdog_s=watchdog_s,
+            connect_timeout_s=connect_timeout_s,
+            call_timeout_s=call_timeout_s,
         )
-        child_socket.close()
-        self._conn = Connection(parent_socket.detach())
-        threading.Thread(
-            target=_log_lines, args=(self._process.stdout, host), name="ur_rtde output", daemon=True
-        ).start()
-        log.debug("connecting to %s (ur_rtde in child pid %s)", host, self._process.pid)
-        try:
-            kind, value = self._receive("connect", connect_timeout_s)
-        except BaseException:
-            self._kill()
-            raise
-        if kind != "hello":
-            self._kill()
-            if kind == "failure" and isinstance(value, dict):
-                raise self._connect_error(Failure(**value))
-            raise RobotConnectionError(f"connect to {host}: unexpected first message {value!r}")
-        self.controller_version = str(value)
+        self.controller_version = self._child.controller_version
+        self._has_remote_control = has_remote_control_command(
+            polyscope_version(self.controller_version)
+        )
         try:
             self.tcp_offset()
         except BaseException:
@@ -309,7 +174,7 @@ class URRtdeArm:
     def status(self) -> RobotStatus:
         """Controller state from the latest RTDE sample plus the dashboard's remote-control flag."""
         sample = self._sample("sample")
-        remote = bool(self._call("remote_control"))
+        remote = self._remote_control()
         return RobotStatus(
             controller_version=self.controller_version,
             robot_mode=sample.robot_mode,
@@ -323,7 +188,7 @@ class URRtdeArm:
     def tcp_offset(self) -> Transform:
         """``T_flange_tcp`` (m) asked from the controller now (``getTCPOffset``); later flange
         poses use this value, so the offset a pick checks is the offset its flange pose uses."""
-        pose = self._call("tcp_offset")
+        pose = self._child.call("tcp_offset")
         if not isinstance(pose, list) or len(pose) != 6:
             raise RobotFault(f"getTCPOffset on {self.host}: expected 6 numbers, got {pose!r}")
         T_flange_tcp = ur_pose_to_matrix(pose)
@@ -343,10 +208,10 @@ class URRtdeArm:
         return self.tcp_pose() @ invert(self._T_flange_tcp)
 
     def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
-        return bool(self._call("is_pose_within_safety_limits", ur_pose_list(T_base_tcp)))
+        return bool(self._child.call("is_pose_within_safety_limits", ur_pose_list(T_base_tcp)))
 
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
-        return bool(self._call("has_ik_solution", ur_pose_list(T_base_tcp)))
+        return bool(self._child.call("has_ik_solution", ur_pose_list(T_base_tcp)))
 
     def move_linear(
         self,
@@ -436,7 +301,7 @@ class URRtdeArm:
         return tuple(self._sample("sample").q)
 
     def joints_within_safety_limits(self, q_rad: Sequence[float]) -> bool:
-        return bool(self._call("is_joints_within_safety_limits", [float(v) for v in q_rad]))
+        return bool(self._child.call("is_joints_within_safety_limits", [float(v) for v in q_rad]))
 
     def _move(
         self,
@@ -449,7 +314,7 @@ class URRtdeArm:
     ) -> Transform:
         """Send one async move and watch it to its end (see ``move_linear``)."""
         start = self._sample("sample")
-        if not self._call("remote_control"):
+        if not self._remote_control():
             raise SafetyRefusal(
                 f"{kind.name} on {self.host} refused, nothing sent: the robot was switched to "
                 "local control; switch the teach pendant back to Remote Control"
@@ -459,7 +324,7 @@ class URRtdeArm:
             log.debug(
                 "%s %s v=%.3f a=%.3f", kind.name, _fmt_pose(kind.target), kind.speed, kind.accel
             )
-            if not self._call(kind.operation, kind.target, kind.speed, kind.accel):
+            if not self._child.call(kind.operation, kind.target, kind.speed, kind.accel):
                 after = self._sample("sample")
                 raise self._fault(f"{kind.name} to {_fmt_pose(kind.target)} was refused", after)
             self._watch_motion(kind.name, start, timeout_s, on_progress, fraction)
@@ -484,11 +349,11 @@ class URRtdeArm:
         self._stop("stop_j", decel_rps2)
 
     def _stop(self, operation: str, decel: float) -> None:
-        if self._dead_reason is not None:
+        if self._child.dead_reason is not None:
             self._stop_by_dashboard()
             return
         try:
-            self._call(operation, decel, timeout_s=STOP_TIMEOUT_S)
+            self._child.call(operation, decel, timeout_s=STOP_TIMEOUT_S)
         except RobotError as exc:
             log.warning("%s on %s failed (%s)", operation, self.host, exc)
             if isinstance(exc, RobotConnectionError):
@@ -503,7 +368,7 @@ class URRtdeArm:
             operation, bit = "set_standard_digital_out", index
         else:
             operation, bit = "set_tool_digital_out", TOOL_OUTPUT_FIRST_BIT + index
-        if not self._call(operation, index, value):
+        if not self._child.call(operation, index, value):
             raise self._fault(f"{what} was refused", self._sample("sample"))
         deadline = time.monotonic() + OUTPUT_CONFIRM_TIMEOUT_S
         while True:
@@ -525,7 +390,7 @@ class URRtdeArm:
     def set_payload(self, mass_kg: float, cog_flange_m: Sequence[float]) -> None:
         """``setPayload(mass, cog)`` (kg, m in the flange frame); RobotFault when refused."""
         cog = [float(v) for v in cog_flange_m]
-        if not self._call("set_payload", float(mass_kg), cog):
+        if not self._child.call("set_payload", float(mass_kg), cog):
             raise self._fault(
                 f"setPayload({mass_kg:g} kg, CoG {_fmt_pose(cog)} m) was refused",
                 self._sample("sample"),
@@ -533,14 +398,14 @@ class URRtdeArm:
 
     def close(self) -> None:
         """Disconnect every interface and end the child; safe to call twice."""
-        if self._process.poll() is not None or self._dead_reason is not None:
-            self._kill()
-            return
-        try:
-            self._call("close")
-        except RobotError as exc:
-            log.warning("closing the ur_rtde session on %s: %s", self.host, exc)
-        self._kill(grace_s=3.0)
+        self._child.close()
+
+    def _remote_control(self) -> bool:
+        """The pendant's Remote Control mode, asked through the session's dashboard client;
+        True without asking on a controller that has no such mode (robot/ur/dashboard.py)."""
+        if not self._has_remote_control:
+            return True
+        return bool(self._child.call("remote_control"))
 
     # --- motion watch ------------------------------------------------------------------------
 
@@ -564,8 +429,7 @@ class URRtdeArm:
             if sample.timestamp_s != last_timestamp:
                 last_timestamp, last_new_sample = sample.timestamp_s, now
             elif now - last_new_sample > STALE_LINK_S:
-                self._dead_reason = f"no RTDE data for {STALE_LINK_S} s during {name}"
-                raise RobotConnectionError(f"{name} on {self.host}: {self._dead_reason}")
+                raise self._link_lost(name, f"no RTDE data for {STALE_LINK_S} s during {name}")
             # The operation id changes when the move starts, so a move that ended before this
             # first look still reads as done.
             done = (
@@ -583,8 +447,7 @@ class URRtdeArm:
 
     def _check_motion_sample(self, sample: Sample, name: str = "moveL") -> None:
         if not (sample.receive_connected and sample.control_connected):
-            self._dead_reason = "the RTDE connection dropped"
-            raise RobotConnectionError(f"{name} on {self.host}: {self._dead_reason}")
+            raise self._link_lost(name, "the RTDE connection dropped")
         if sample.protective_stopped or sample.emergency_stopped:
             kind = "protective stop" if sample.protective_stopped else "emergency stop"
             raise self._fault(f"{name}: {kind} active", sample)
@@ -627,149 +490,19 @@ class URRtdeArm:
             robot_mode=sample.robot_mode,
         )
 
-    def _stop_by_dashboard(self) -> None:
-        """Kill the child (it may be reconnecting), then send ``stop`` on fresh dashboard
-        connections until the controller answers that it stopped or ``DASHBOARD_STOP_DEADLINE_S``
-        passes (a stalled controller may answer only later). Logged as an error when it could
-        not be confirmed: the arm may still be moving."""
-        self._kill()
-        deadline = time.monotonic() + DASHBOARD_STOP_DEADLINE_S
-        attempts = 0
-        while True:
-            attempts += 1
-            try:
-                confirmed, reply = dashboard_stop(self.host)
-            except OSError as exc:
-                confirmed, reply = False, f"no answer ({exc})"
-            if confirmed:
-                log.warning("link to %s lost: dashboard stop confirmed (%r)", self.host, reply)
-                return
-            if time.monotonic() > deadline:
-                log.error(
-                    "LINK TO %s LOST AND THE STOP COULD NOT BE CONFIRMED after %d attempts in "
-                    "%.0f s (last answer: %s): the arm may still be moving; use the emergency "
-                    "stop",
-                    self.host,
-                    attempts,
-                    DASHBOARD_STOP_DEADLINE_S,
-                    reply,
-                )
-                return
-            time.sleep(DASHBOARD_RETRY_S)
+    def _link_lost(self, name: str, reason: str) -> RobotConnectionError:
+        """End the session for ``reason``; the error that says so."""
+        self._child.end(reason)
+        return RobotConnectionError(f"{name} on {self.host}: {reason}")
 
-    # --- pipe --------------------------------------------------------------------------------
+    def _stop_by_dashboard(self) -> None:
+        """End the child (it may be reconnecting), then stop the program through fresh
+        dashboard connections until the controller confirms (robot/ur/dashboard.py)."""
+        self._child.end()
+        stop_program_until_confirmed(self.host)
 
     def _sample(self, operation: str) -> Sample:
-        fields = self._call(operation)
+        fields = self._child.call(operation)
         if not isinstance(fields, dict):
             raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {fields!r}")
         return Sample(**fields)
-
-    def _call(self, operation: str, *args: object, timeout_s: float | None = None) -> object:
-        """One request to the child; its result, or a typed error. Marks the session dead on a
-        lost link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``)."""
-        timeout_s = self._call_timeout_s if timeout_s is None else timeout_s
-        if self._dead_reason is not None:
-            raise RobotConnectionError(
-                f"{operation} on {self.host}: the session is over ({self._dead_reason}); "
-                "start a new one"
-            )
-        if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first
-            self._receive(operation, timeout_s)
-        try:
-            with _ctrl_c_held():
-                self._conn.send((operation, args))
-                # Set inside the hold: a Ctrl-C held during the send is raised as the hold ends,
-                # and the next call must still drain this request's answer.
-                self._pending_reply = True
-        except OSError as exc:
-            self._dead_reason = f"the ur_rtde process is gone ({exc})"
-            raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}") from None
-        started = time.perf_counter()
-        kind, value = self._receive(operation, timeout_s)
-        if operation != "sample":  # cached RTDE state polled during moves: no controller traffic
-            log.debug(
-                "%s%s -> %s %.60r in %.2f ms",
-                operation,
-                tuple(args),
-                kind,
-                value,
-                (time.perf_counter() - started) * 1000.0,
-            )
-        if kind == "failure" and isinstance(value, dict):
-            raise self._call_error(Failure(**value))
-        if kind != "ok":
-            raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {value!r}")
-        return value
-
-    def _receive(self, operation: str, timeout_s: float) -> tuple[str, object]:
-        """Wait for one ``(kind, value)`` message from the child, bounded; a silent or dead
-        child ends the session."""
-        deadline = time.monotonic() + timeout_s
-        while not self._conn.poll(0.05):
-            if self._process.poll() is not None:
-                self._dead_reason = (
-                    f"the ur_rtde process died (exit status {self._process.returncode})"
-                )
-                break
-            if time.monotonic() > deadline:
-                self._dead_reason = f"no answer to {operation} within {timeout_s} s"
-                break
-        else:
-            try:
-                with _ctrl_c_held():
-                    message = self._conn.recv()
-                    # Cleared inside the hold, for the same reason: a Ctrl-C raised as the hold
-                    # ends must not leave the next call waiting for an answer already read.
-                    self._pending_reply = False
-            except (EOFError, OSError):
-                self._dead_reason = "the ur_rtde process closed its pipe (it probably crashed)"
-            else:
-                if isinstance(message, tuple) and len(message) == 2:
-                    return str(message[0]), message[1]
-                self._dead_reason = f"unexpected message from the ur_rtde process: {message!r}"
-        self._kill()
-        raise RobotConnectionError(f"{operation} on {self.host}: {self._dead_reason}")
-
-    def _kill(self, grace_s: float = 0.0) -> None:
-        """End the child (given ``grace_s`` to leave by itself) and the pipe; session over."""
-        if self._dead_reason is None:
-            self._dead_reason = "the session was closed"
-        try:
-            self._process.wait(timeout=grace_s)
-        except subprocess.TimeoutExpired:
-            self._process.kill()
-            self._process.wait(timeout=3.0)
-        self._conn.close()
-
-    def _connect_error(self, failure: Failure) -> RobotError | SafetyRefusal:
-        if failure.safety_mode is not None and failure.robot_mode is not None:
-            advice = _STOP_ADVICE.get(failure.safety_mode)
-            if advice is None and failure.robot_mode != RobotMode.RUNNING:
-                advice = (
-                    f"the arm is not running (robot mode "
-                    f"{mode_name(RobotMode, failure.robot_mode)}): power it on and release the "
-                    "brakes on the pendant"
-                )
-            if advice is not None:
-                return SafetyRefusal(
-                    f"connect to {self.host}: the controller cannot run ur_rtde's control "
-                    f"program: {advice} (ur_rtde: {failure.message})"
-                )
-        for fragment, hint in _CONNECT_ERROR_HINTS:
-            if fragment in failure.message:
-                message = f"connect to {self.host}: {hint} (ur_rtde: {failure.message})"
-                if fragment == "remote control":
-                    return SafetyRefusal(message)
-                return RobotConnectionError(message)
-        return RobotConnectionError(
-            f"connect to {self.host}: {failure.exception_type}: {failure.message}"
-        )
-
-    def _call_error(self, failure: Failure) -> RobotError:
-        text = f"{failure.operation} on {self.host}: {failure.exception_type}: {failure.message}"
-        if failure.exception_type == "LinkLost":  # the receive stream is stale or gone
-            self._dead_reason = failure.message
-            self._kill()
-            return RobotConnectionError(text)
-        return RobotFault(text)  # the controller refused ("did not succeed") or a bad argument

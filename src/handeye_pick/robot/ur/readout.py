@@ -4,7 +4,7 @@ ur_rtde's control interface uploads its own program when it connects, which stop
 controller was running (a pendant program, or another handeye-pick session mid-pick) and leaves
 ``rtde_control`` as the controller's program. A status check must leave the controller as it
 found it, so this module sends no program and writes nothing: one RTDE output package and a few
-dashboard queries, both plain sockets with bounded waits.
+dashboard queries (robot/ur/dashboard.py), both plain sockets with bounded waits.
 
 It speaks RTDE itself rather than through ``rtde_receive``: ur_rtde 1.6.5's receive interface
 cannot read ``tcp_offset`` (its type map lacks the field), and only the control interface can
@@ -28,16 +28,15 @@ from dataclasses import dataclass
 from handeye_pick.errors import RobotConnectionError
 from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
 from handeye_pick.robot.port import RobotStatus, RuntimeState
+from handeye_pick.robot.ur.dashboard import DASHBOARD_PORT, Dashboard, has_remote_control_command
 
 RTDE_PORT = 30004
-DASHBOARD_PORT = 29999
 TIMEOUT_S = 2.0
 """Every connect, request and reply gets this long; a controller that answers nothing in 2 s is
 not one to judge (RTDE streams at 125 or 500 Hz, the dashboard answers in milliseconds)."""
 FREQUENCY_HZ = 25.0
 """Output rate asked for: one package is read, so the first one arrives within 40 ms. Valid on
 CB3 (at most 125 Hz) and e-Series (500 Hz)."""
-MAX_DASHBOARD_LINE = 4096
 
 _PROTOCOL_VERSION = 2
 _REQUEST_PROTOCOL_VERSION = ord("V")
@@ -63,9 +62,6 @@ _FORMATS = {"DOUBLE": "d", "VECTOR6D": "6d", "INT32": "i", "UINT32": "I"}
 _PROTECTIVE_STOPPED_BIT = 2
 _EMERGENCY_STOPPED_BIT = 7
 """``safety_status_bits``: bit 2 is protective stopped, bit 7 emergency stopped (either kind)."""
-REMOTE_CONTROL_SINCE = (5, 6)
-"""PolyScope 5.6 introduced Remote Control (and the dashboard's ``is in remote control``); a CB3
-or an older e-Series has no local mode to be in."""
 
 
 @dataclass(frozen=True)
@@ -220,28 +216,18 @@ def _receive(sock: socket.socket, count: int) -> bytes:
 
 
 def _ask_dashboard(host: str, version: tuple[int, ...]) -> tuple[bool, str, str | None]:
-    """Remote control, ``programState`` and the loaded program's path."""
+    """Remote control (True where there is none to be in), ``programState`` and the loaded
+    program's path."""
     try:
-        with socket.create_connection((host, DASHBOARD_PORT), timeout=TIMEOUT_S) as sock:
-            reader = sock.makefile("r", encoding="utf-8", errors="replace", newline="\n")
-
-            def ask(command: str) -> str:
-                sock.sendall(command.encode("ascii") + b"\n")
-                answer = reader.readline(MAX_DASHBOARD_LINE)
-                if not answer:
-                    raise _Protocol(f"no answer to {command!r}")
-                return answer.strip()
-
-            if not reader.readline(MAX_DASHBOARD_LINE):  # the banner
-                raise _Protocol("no banner")
+        with Dashboard(host, TIMEOUT_S) as dashboard:
             remote = (
-                ask("is in remote control").lower() == "true"
-                if version[:2] >= REMOTE_CONTROL_SINCE
+                dashboard.ask("is in remote control").lower() == "true"
+                if has_remote_control_command(version)
                 else True
             )
-            program_state = ask("programState")
-            loaded = ask("get loaded program")
-    except (OSError, _Protocol) as exc:
+            program_state = dashboard.ask("programState")
+            loaded = dashboard.ask("get loaded program")
+    except OSError as exc:
         raise RobotConnectionError(
             f"cell {host}: the dashboard server (port {DASHBOARD_PORT}) does not answer "
             f"({exc or type(exc).__name__}); PolyScope X has none"

@@ -1,8 +1,8 @@
 """The child process that owns the ur_rtde objects; the parent talks to it over a Pipe.
 
-Run as a script, ``python .../robot/worker.py FD HOST WATCHDOG_S [--io]``, by ``URRtdeArm``
-(WATCHDOG_S: see ``WATCHDOG_KICKS_PER_WINDOW``): FD is this end
-of a socket pair used as a ``multiprocessing.connection.Connection``. As a script it imports
+Run as a script, ``python .../robot/ur/worker.py FD HOST WATCHDOG_S [--io]``, by
+robot/ur/child.py (WATCHDOG_S: see ``WATCHDOG_KICKS_PER_WINDOW``): FD is this end of a socket
+pair used as a ``multiprocessing.connection.Connection``. As a script it imports
 only the standard library and ur_rtde (importing the package would load numpy, scipy and numba,
 half a second per connection), so everything it sends is plain data: dicts, lists, numbers.
 
@@ -40,8 +40,6 @@ the arm, when this process has not written its command register for WATCHDOG_S s
 kicked eight times per window (a kick is one register write, no round trip) for as long as the
 parent's pipe is open, idle or busy, so the program stops about WATCHDOG_S after the parent dies
 or this process does (SIGKILL, a crash, a power cut)."""
-REMOTE_CONTROL_SINCE_MAJOR = 5
-"""PolyScope 5 (e-Series) introduced Remote Control; CB3 controllers run PolyScope 3."""
 # robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING (not imported: see above).
 SAFETY_MODES_THAT_RUN = (1, 2)
 ROBOT_MODE_RUNNING = 7
@@ -212,12 +210,9 @@ class _Session:
             raise LinkLost("the RTDE connection was lost")
 
     def remote_control(self) -> bool:
-        """The pendant's Remote Control mode. A CB3 (PolyScope 3.x) has no such mode: any
-        client may command it, so the check does not apply and it answers True. An unreadable
-        version keeps the check."""
-        major = _major_version(self.controller_version)
-        if major is not None and major < REMOTE_CONTROL_SINCE_MAJOR:
-            return True
+        """The dashboard's ``is in remote control``. The parent asks only a controller that has
+        the command (``has_remote_control_command`` in robot/ur/dashboard.py, not imported: see
+        above); elsewhere ur_rtde's answer would read as local control."""
         return bool(self._dashboard.isInRemoteControl())
 
     def tcp_offset(self) -> list[float]:
@@ -257,16 +252,6 @@ class _Session:
         if self._io is None:
             raise RuntimeError("the IO interface was not opened (no gripper output configured)")
         return self._io
-
-
-def _major_version(polyscope_version: str) -> int | None:
-    """5 from '5.15.0.1234' (what ur_rtde's polyscopeVersion() returns) or from the dashboard's
-    'URSoftware 5.15.0.1234 (Jul 12 2023)'; None when no version number is found."""
-    for word in polyscope_version.split():
-        major = word.split(".", 1)[0]
-        if "." in word and major.isdigit():
-            return int(major)
-    return None
 
 
 def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None:
