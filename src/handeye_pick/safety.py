@@ -386,6 +386,16 @@ def tcp_offset_problems(
     ]
 
 
+def ensure_remote_control(remote_control: bool, host: str, command: str) -> None:
+    """Refuse a motion ``command`` (moveL, moveJ) on a robot switched to local control since the
+    sequence was checked: read right before each move is sent."""
+    if not remote_control:
+        raise SafetyRefusal(
+            f"{command} on {host} refused, nothing sent: the robot was switched to "
+            "local control; switch the teach pendant back to Remote Control"
+        )
+
+
 def ensure_not_halted(host: str, halted: str | None) -> None:
     """Refuse every motion of a cell a fault halted (``halted`` says why) until it resumes."""
     if halted is not None:

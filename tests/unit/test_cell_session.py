@@ -78,6 +78,9 @@ class ScriptedArm:
     def status(self) -> RobotStatus:
         return self.status_value
 
+    def remote_control(self) -> bool:
+        return self.status_value.remote_control
+
     def tcp_offset(self) -> Transform:
         return self.T_flange_tcp
 

@@ -32,7 +32,7 @@ from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import ProgressCallback, RobotArm
-from handeye_pick.safety import check_joint_command, check_motion_command
+from handeye_pick.safety import check_joint_command, check_motion_command, ensure_remote_control
 
 TIMEOUT_FACTOR = 1.5
 """A move may take this much longer than its trapezoid profile (speed slider, controller
@@ -206,6 +206,8 @@ class _Run:
         """One moveJ or moveL, its command capped and its timeout bounded before it is sent; a
         confirmed part is watched while it runs."""
         watched = self.gripper if self.grasp is GraspState.CONFIRMED else None
+        command = "moveJ" if isinstance(step, JointMove) else "moveL"
+        ensure_remote_control(self.arm.remote_control(), self.config.robot.host, command)
         send = self._joint_command(step) if isinstance(step, JointMove) else self._linear(step)
         try:
             with self.progress.step(step.name) as report:

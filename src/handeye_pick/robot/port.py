@@ -100,6 +100,12 @@ class RobotArm(Protocol):
         """Current controller state. Does not block beyond one RTDE cycle."""
         ...
 
+    def remote_control(self) -> bool:
+        """Whether the pendant is in Remote Control, so the controller takes this session's
+        commands; True on a controller without such a mode (CB3, PolyScope before 5.6). One
+        dashboard round trip."""
+        ...
+
     def tcp_offset(self) -> Transform:
         """``T_flange_tcp`` (m): the TCP offset active on the controller right now."""
         ...

@@ -174,7 +174,7 @@ class URRtdeArm:
     def status(self) -> RobotStatus:
         """Controller state from the latest RTDE sample plus the dashboard's remote-control flag."""
         sample = self._sample("sample")
-        remote = self._remote_control()
+        remote = self.remote_control()
         return RobotStatus(
             controller_version=self.controller_version,
             robot_mode=sample.robot_mode,
@@ -228,8 +228,8 @@ class URRtdeArm:
         at 50 % gives the move twice as long in wall-clock time). A fault sends stopL (where
         the link still works) and raises RobotFault; a lost link stops the program through a
         fresh dashboard connection and raises RobotConnectionError; Ctrl-C, or any other
-        exception (a failing ``on_progress``), sends stopL and propagates. A robot switched to
-        local control since the last move is refused before anything is sent (SafetyRefusal).
+        exception (a failing ``on_progress``), sends stopL and propagates. Remote control is the
+        caller's check (``safety.ensure_remote_control``, before every move of a sequence).
         """
 
         def fraction(start: Sample, now: Sample) -> float:
@@ -314,11 +314,6 @@ class URRtdeArm:
     ) -> Transform:
         """Send one async move and watch it to its end (see ``move_linear``)."""
         start = self._sample("sample")
-        if not self._remote_control():
-            raise SafetyRefusal(
-                f"{kind.name} on {self.host} refused, nothing sent: the robot was switched to "
-                "local control; switch the teach pendant back to Remote Control"
-            )
         try:
             self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
             log.debug(
@@ -400,7 +395,7 @@ class URRtdeArm:
         """Disconnect every interface and end the child; safe to call twice."""
         self._child.close()
 
-    def _remote_control(self) -> bool:
+    def remote_control(self) -> bool:
         """The pendant's Remote Control mode, asked through the session's dashboard client;
         True without asking on a controller that has no such mode (robot/ur/dashboard.py)."""
         if not self._has_remote_control:
