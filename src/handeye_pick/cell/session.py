@@ -199,6 +199,9 @@ class Cell:
         self._fixed_verdicts: ControllerVerdicts = {}
         self._audit: AuditLog | None = None
         self._lock = CellLock(self.config.robot.host)
+        self.last_pick_id: str | None = None
+        """The ``pick_id`` of the audit records of the latest operation, whatever its ending
+        (a report of a failed pick carries it)."""
 
     # --- session ---------------------------------------------------------------------------
 
@@ -233,6 +236,7 @@ class Cell:
         if request_id is not None:
             outcome["request_id"] = request_id
         audit = self._next_audit()
+        self.last_pick_id = audit.pick_id
         try:
             with self.progress.step(f"connecting to {self.config.robot.host}"):
                 self._arm = self._connect_arm(self.config)
@@ -661,6 +665,7 @@ class Cell:
         both records; ``holding`` is a part already carried, watched on every move.
         """
         audit = self._next_audit()
+        self.last_pick_id = audit.pick_id
         outcome: dict[str, object] = {"event": "outcome", **context, **outcome_fields}
         with self._halt_on_fault(), audited_outcome(audit, outcome):
             ensure_not_halted(self.config.robot.host, self._halted)
