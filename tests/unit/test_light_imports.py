@@ -86,11 +86,12 @@ def test_summaries_listed_without_the_modules_match_the_modules_own() -> None:
 def test_commands_without_a_robot_load_nothing_heavy_and_no_other_command(
     command_line: str,
 ) -> None:
-    loaded = _modules_loaded(command_line.split(), ROOT)
+    argv = command_line.split()
+    loaded = _modules_loaded(argv, ROOT)
     assert _heavy(loaded) == []
-    other_commands = {f"handeye_pick.cli.{module}" for module in MODULES} - {
-        "handeye_pick.cli.transform"
-    }
+    own = f"handeye_pick.cli.{COMMANDS[argv[0]][0]}"
+    assert own in loaded
+    other_commands = {f"handeye_pick.cli.{module}" for module in MODULES} - {own}
     assert other_commands.isdisjoint(loaded)
 
 
@@ -112,3 +113,9 @@ def test_every_public_name_is_exported_and_importable() -> None:
     assert set(handeye_pick.__all__) == {"__version__", *handeye_pick._EXPORTS}
     for name in handeye_pick.__all__:
         assert getattr(handeye_pick, name) is not None
+
+
+def test_each_command_has_its_own_module_named_after_it() -> None:
+    for command, (module, _) in COMMANDS.items():
+        assert module == command.replace("-", "_"), command
+    assert len(MODULES) == len(COMMANDS)

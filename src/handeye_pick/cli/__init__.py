@@ -32,9 +32,9 @@ from handeye_pick.progress import add_output_args, configure_logging
 
 COMMANDS: dict[str, tuple[str, str]] = {
     # command: (module in handeye_pick.cli that registers it, summary for the top-level --help)
-    "point": ("transform", "transform one camera-frame point (mm) into the robot base frame (mm)"),
+    "point": ("point", "transform one camera-frame point (mm) into the robot base frame (mm)"),
     "convert": (
-        "transform",
+        "convert",
         "convert a pose between UR vector, 4x4 matrix, quaternion and Euler/RPY",
     ),
     "pick": (
@@ -45,13 +45,13 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "cloud",
         "transform a point cloud file from the camera frame into the robot base frame",
     ),
-    "plan": ("operator", "plan a pick and draw every frame to a PNG; moves nothing"),
+    "plan": ("plan", "plan a pick and draw every frame to a PNG; moves nothing"),
     "status": (
-        "operator",
+        "status",
         "is the cell ready to pick? exit 0 ready, 3 not ready (with the reasons), 4 no answer",
     ),
     "touch-test": (
-        "operator",
+        "touch_test",
         "move the TCP slowly to a stand-off above a point the camera sees, then back",
     ),
     "run": (
@@ -59,7 +59,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "run the cell for a shift: JSON requests (capture, pick, place, move, status, resume, "
         "quit) one per line on stdin or a TCP socket",
     ),
-    "poses": ("collect", "propose reachable poses for a hand-eye dataset; moves nothing"),
+    "poses": ("poses", "propose reachable poses for a hand-eye dataset; moves nothing"),
     "collect": ("collect", "move through a pose list and capture a hand-eye dataset"),
     "calibrate": (
         "calibrate",
@@ -93,8 +93,6 @@ def parser_with(modules: Collection[str] = MODULES) -> argparse.ArgumentParser:
     add_output_args(parser)
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     for name, (module, summary) in COMMANDS.items():
-        if name in sub.choices:  # registered with an earlier command of its module
-            continue
         if module in modules:
             importlib.import_module(f"handeye_pick.cli.{module}").register(sub)
         else:

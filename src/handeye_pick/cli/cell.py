@@ -119,3 +119,19 @@ def plan_fields(plan: PickPlan) -> dict[str, object]:
 def print_json(report: dict[str, object]) -> None:
     """Print one JSON object on stdout."""
     print(json.dumps(report, indent=2), flush=True)
+
+
+def add_json_arg(parser: argparse.ArgumentParser) -> None:
+    """``--json``: one JSON object on stdout instead of progress lines."""
+    parser.add_argument(
+        "--json", action="store_true", help="print one JSON object on stdout; no progress lines"
+    )
+
+
+def show(value: object) -> str:
+    """A value for a person: numbers to 4 places, yes/NO, - for nothing."""
+    if isinstance(value, list):
+        return "[" + ", ".join(f"{v:.4f}" for v in value) + "]"
+    if isinstance(value, bool):
+        return "yes" if value else "NO"
+    return "-" if value is None else str(value)

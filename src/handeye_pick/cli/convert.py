@@ -1,5 +1,4 @@
-"""Commands that need no robot: ``point`` (camera point -> robot base) and ``convert`` (pose
-representations)."""
+"""``convert``: one pose between UR vector, 4x4 matrix, quaternion and Euler/RPY."""
 
 from __future__ import annotations
 
@@ -12,14 +11,7 @@ from numpy.typing import NDArray
 
 from handeye_pick.cli.common import (
     accept_negative_exponents,
-    add_camera_point_args,
-    add_hand_eye_args,
-    add_robot_pose_args,
-    camera_chain_from_args,
-    camera_point_mm_from_args,
-    refuse_implausible_chain,
 )
-from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
     AngleUnit,
@@ -30,33 +22,16 @@ from handeye_pick.geometry import (
     rotation_from_quaternion,
     rotation_to_euler,
     rotation_to_quaternion,
-    transform_point,
     ur_pose_to_matrix,
     validate_transform,
 )
 
+_COUNTS = {"ur": 6, "matrix": 16, "quat-xyzw": 7, "quat-wxyz": 7, "euler": 6}
+_FORMATS = tuple(_COUNTS)
+
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
-    """Add the ``point`` and ``convert`` commands to the top-level parser."""
-    point = sub.add_parser(
-        "point",
-        help="transform one camera-frame point (mm) into the robot base frame (mm)",
-        description="Transform one point from the camera frame to the robot base frame: "
-        "p_base = T_base_cam @ p_cam. Eye-to-hand: T_base_cam is the calibration file. "
-        "Eye-in-hand: T_base_cam = T_base_flange @ T_flange_cam, with T_base_flange the flange "
-        "pose when the point was captured. Points in and out are mm; calibration and robot pose "
-        "files are mm unless --calibration-units/--robot-pose-units m.",
-    )
-    add_hand_eye_args(point)
-    add_robot_pose_args(point)
-    add_camera_point_args(point)
-    point.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object (point_camera_mm, point_base_mm, T_base_cam_m, ...)",
-    )
-    point.set_defaults(run=run_point)
-
+    """Add the command to the top-level parser."""
     convert = sub.add_parser(
         "convert",
         help="convert a pose between UR vector, 4x4 matrix, quaternion and Euler/RPY",
@@ -80,54 +55,6 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     convert.add_argument("values", nargs="+", type=float, metavar="NUMBER", help="the pose")
     accept_negative_exponents(convert)
     convert.set_defaults(run=run_convert)
-
-
-# --- point ----------------------------------------------------------------------------------------
-
-
-def run_point(args: argparse.Namespace) -> int:
-    """Print the camera point in the robot base frame (mm)."""
-    chain = camera_chain_from_args(args)
-    p_cam_mm = camera_point_mm_from_args(args)
-    if p_cam_mm is None:
-        raise InputError("point needs --xyz X Y Z or --cloud FILE --pixel COL ROW")
-    # The checks pick applies to a camera point (metres given as mm, behind the lens, ...).
-    source = "--xyz" if args.cloud is None else f"{args.cloud} pixel {args.pixel}"
-    detection = detection_from_point_mm(p_cam_mm, source)
-    refuse_implausible_chain(args, chain, detection.T_cam_obj)
-    p_base_mm = transform_point(chain.T_base_cam, p_cam_mm * 1e-3) * 1e3
-    calibration = chain.calibration
-    if args.json:
-        report: dict[str, Any] = {
-            "mode": calibration.mode.value,
-            "calibration": {
-                "path": str(calibration.path),
-                "sha256": calibration.sha256,
-                "units": calibration.units,
-                "inverted": calibration.inverted,
-            },
-            "point_camera_mm": p_cam_mm.tolist(),
-            "point_base_mm": p_base_mm.tolist(),
-            "T_base_cam_m": chain.T_base_cam.tolist(),
-            "T_base_flange_m": None
-            if chain.T_base_flange is None
-            else chain.T_base_flange.tolist(),
-        }
-        print(json.dumps(report))
-    else:
-        print(f"point_camera_mm: {_numbers(p_cam_mm)}")
-        print(f"point_base_mm:   {_numbers(p_base_mm)}")
-    return 0
-
-
-def _numbers(values: NDArray[np.float64]) -> str:
-    return " ".join(f"{v:.4f}" for v in values)
-
-
-# --- convert --------------------------------------------------------------------------------------
-
-_COUNTS = {"ur": 6, "matrix": 16, "quat-xyzw": 7, "quat-wxyz": 7, "euler": 6}
-_FORMATS = tuple(_COUNTS)
 
 
 def run_convert(args: argparse.Namespace) -> int:
