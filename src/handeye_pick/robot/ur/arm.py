@@ -448,7 +448,7 @@ class URRtdeArm:
         stop: Callable[[], None],
     ) -> Transform:
         """Send one async move and watch it to its end (see ``move_linear``)."""
-        start = self._sample("sample")
+        start = self._sample("fresh_sample")
         if not self._call("remote_control"):
             raise SafetyRefusal(
                 f"{kind.name} on {self.host} refused, nothing sent: the robot was switched to "
