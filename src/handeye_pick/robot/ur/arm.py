@@ -313,7 +313,7 @@ class URRtdeArm:
         stop: Callable[[], None],
     ) -> Transform:
         """Send one async move and watch it to its end (see ``move_linear``)."""
-        start = self._sample("sample")
+        start = self._sample("fresh_sample")
         try:
             self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
             log.debug(
