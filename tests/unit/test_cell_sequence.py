@@ -20,7 +20,8 @@ from handeye_pick import progress as progress_module
 from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.sequence import move_timeout_s
 from handeye_pick.cell.session import Cell, NoFeasibleCandidate, PickResult
-from handeye_pick.config.schema import CellConfig, load_config
+from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection, detection_from_point_mm
 from handeye_pick.errors import CellHalted, RobotFault, SafetyRefusal
 from handeye_pick.geometry import (

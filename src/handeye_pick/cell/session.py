@@ -62,7 +62,8 @@ from handeye_pick.cell.sequence import (
     reached_errors,
     steps_record,
 )
-from handeye_pick.config.schema import CellConfig, GripperConfig, NamedPose, load_config
+from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import CellConfig, NamedPose
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
     CellHalted,
@@ -77,6 +78,7 @@ from handeye_pick.errors import (
 )
 from handeye_pick.geometry import Transform, compose, ur_pose_list
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
+from handeye_pick.gripper.config import GripperConfig
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
 from handeye_pick.robot.ur.readout import read_controller
@@ -271,7 +273,10 @@ class Cell:
         try:
             with self.progress.step(f"connecting to {self.config.robot.host}"):
                 self._arm = self._connect_arm(self.config)
-                self._gripper = connect_gripper(self.config, self._arm, self.progress.say)
+                robot = self.config.robot
+                self._gripper = connect_gripper(
+                    robot.gripper, robot.host, self._arm, self.progress.say
+                )
         except BaseException as exc:
             append_failure(audit, outcome, exc)
             self._close_arm()
