@@ -39,7 +39,8 @@ sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 from handeye_pick import Cell  # noqa: E402
 from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.cell.session import connect_ur_rtde  # noqa: E402
-from handeye_pick.config.schema import CellConfig, load_config  # noqa: E402
+from handeye_pick.config.load import load_config  # noqa: E402
+from handeye_pick.config.schema import CellConfig  # noqa: E402
 from handeye_pick.detection import detection_from_point_mm  # noqa: E402
 from handeye_pick.geometry import (  # noqa: E402
     invert,

@@ -23,7 +23,7 @@ _EXPORTS = {
     "PickResult": "handeye_pick.cell.session",
     "NoFeasibleCandidate": "handeye_pick.cell.plan",
     "PreflightRefusal": "handeye_pick.safety",
-    "load_config": "handeye_pick.config.schema",
+    "load_config": "handeye_pick.config.load",
     "load_detection": "handeye_pick.detection",
     "detection_from_point_mm": "handeye_pick.detection",
     "Detection": "handeye_pick.detection",
@@ -65,7 +65,7 @@ if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ im
     from handeye_pick.cell.session import Cell, PickResult
     from handeye_pick.cell.status import CellStatus
     from handeye_pick.cloud.transform import transform_points
-    from handeye_pick.config.schema import load_config
+    from handeye_pick.config.load import load_config
     from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
     from handeye_pick.errors import (
         CellHalted,

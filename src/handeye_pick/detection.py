@@ -34,7 +34,7 @@ from handeye_pick.calibration.files import (
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.config.schema import Fields, read_yaml_mapping
+from handeye_pick.config.reader import Fields, read_yaml_mapping
 from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,

@@ -18,7 +18,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from handeye_pick.calibration.files import load_hand_eye
-from handeye_pick.config.schema import load_config
+from handeye_pick.config.load import load_config
 from mocks.ur_controller.kinematics import MODELS, forward, pose_to_matrix, reachable
 
 ROOT = Path(__file__).resolve().parents[2]

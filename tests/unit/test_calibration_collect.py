@@ -20,7 +20,7 @@ from handeye_pick.calibration.collect import (
 )
 from handeye_pick.calibration.files import write_zivid_transform
 from handeye_pick.calibration.pose_list import PoseList
-from handeye_pick.config.schema import load_config
+from handeye_pick.config.load import load_config
 from handeye_pick.errors import CalibrationError, InputError
 from handeye_pick.geometry import make_transform, ur_pose_to_matrix
 

@@ -27,7 +27,8 @@ from handeye_pick.calibration.plausibility import (
     measured_position_problem,
     refuse_implausible,
 )
-from handeye_pick.config.schema import WorkspaceConfig, load_config
+from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import WorkspaceConfig
 from handeye_pick.detection import detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError, SafetyRefusal
 from handeye_pick.geometry import (

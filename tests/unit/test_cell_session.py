@@ -22,7 +22,8 @@ from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.plan import NoFeasibleCandidate
 from handeye_pick.cell.sequence import move_timeout_s
 from handeye_pick.cell.session import Cell, PickResult
-from handeye_pick.config.schema import CellConfig, load_config
+from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection, detection_from_point_mm
 from handeye_pick.errors import (
     CellHalted,

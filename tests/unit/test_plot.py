@@ -10,7 +10,7 @@ import pytest
 
 from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.plan import STEPS, chain_plan
-from handeye_pick.config.schema import load_config
+from handeye_pick.config.load import load_config
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix

@@ -21,13 +21,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from handeye_pick.config.schema import (
-    NAMED_POSE_KEYS,
-    Fields,
-    NamedPose,
-    named_pose,
-    read_yaml_mapping,
-)
+from handeye_pick.config.poses import NAMED_POSE_KEYS, named_pose
+from handeye_pick.config.reader import Fields, read_yaml_mapping
+from handeye_pick.config.schema import NamedPose
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
 

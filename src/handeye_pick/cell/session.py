@@ -69,13 +69,8 @@ from handeye_pick.cell.status import (
     session_status,
     unread,
 )
-from handeye_pick.config.schema import (
-    CellConfig,
-    GripperConfig,
-    NamedPose,
-    PlaceConfig,
-    load_config,
-)
+from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import CellConfig, NamedPose, PlaceConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
     ConfigError,
@@ -87,6 +82,7 @@ from handeye_pick.errors import (
 )
 from handeye_pick.geometry import Transform
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
+from handeye_pick.gripper.config import GripperConfig
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
@@ -240,7 +236,10 @@ class Cell:
         try:
             with self.progress.step(f"connecting to {self.config.robot.host}"):
                 self._arm = self._connect_arm(self.config)
-                self._gripper = connect_gripper(self.config, self._arm, self.progress.say)
+                robot = self.config.robot
+                self._gripper = connect_gripper(
+                    robot.gripper, robot.host, self._arm, self.progress.say
+                )
         except BaseException as exc:
             append_failure(audit, outcome, exc)
             self._close_arm()

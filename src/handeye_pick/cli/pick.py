@@ -68,7 +68,7 @@ def run(args: argparse.Namespace) -> int:
     """Exit 0 when the pick (or dry run) is done; typed errors propagate to the dispatcher,
     after the JSON report is printed."""
     from handeye_pick.cell.session import Cell
-    from handeye_pick.config.schema import load_config
+    from handeye_pick.config.load import load_config
 
     report: dict[str, object] = {"status": "starting"}
     try:

@@ -31,7 +31,6 @@ if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --h
     from handeye_pick.cell.plan import PickPlan
 
 
-
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the command to the top-level parser."""
     plan = sub.add_parser(

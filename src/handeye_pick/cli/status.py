@@ -24,7 +24,6 @@ if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --h
     from handeye_pick.cell.status import CellStatus
 
 
-
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     """Add the command to the top-level parser."""
     status = sub.add_parser(

@@ -1,0 +1,77 @@
+"""``load_config``: one cell config file, read with PyYAML's safe loader, into a frozen
+``CellConfig``.
+
+Every key is checked where it is read: an unknown key, a wrong type or a value out of range is a
+``ConfigError`` naming the file and the key path (``motion.speed_mps``). Units are in the key
+names (``_mm``, ``_mps``, ``_deg``, ``_s``); inside the package everything is metres and radians.
+``config/cell.example.yaml`` documents every key.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from handeye_pick.config.hand_eye import read_hand_eye
+from handeye_pick.config.motion import read_motion, read_workspace
+from handeye_pick.config.payload import read_object
+from handeye_pick.config.poses import read_capture, read_grasp, read_place, read_poses
+from handeye_pick.config.reader import Fields, read_yaml_mapping
+from handeye_pick.config.robot import read_robot
+from handeye_pick.config.schema import AuditConfig, CaptureConfig, CellConfig
+from handeye_pick.errors import ConfigError
+
+_SECTIONS = (
+    "robot",
+    "hand_eye",
+    "grasp",
+    "motion",
+    "workspace",
+    "audit",
+    "poses",
+    "place",
+    "capture",
+    "object",
+)
+
+
+def load_config(path: Path) -> CellConfig:
+    """Read and validate a cell config; file paths in it are resolved relative to its folder."""
+    path = Path(path).resolve()
+    top = Fields(
+        read_yaml_mapping(path, ConfigError, "cell config"),
+        source=str(path),
+        prefix="",
+        allowed=_SECTIONS,
+        error=ConfigError,
+    )
+    poses = read_poses(top) if top.has("poses") else ()
+    robot = read_robot(top)
+    part = read_object(top) if top.has("object") else None
+    if part is not None and robot.tool_payload is None:
+        top.fail(
+            "object",
+            "a part's payload needs the empty tool's too: set robot.tool_payload "
+            "{mass_kg, cog_mm} (as on the pendant's payload screen), restored after each release",
+        )
+    return CellConfig(
+        robot=robot,
+        hand_eye=read_hand_eye(top, path.parent),
+        grasp=read_grasp(top),
+        motion=read_motion(top),
+        workspace=read_workspace(top),
+        audit=_audit(top, path.parent),
+        path=path,
+        poses=poses,
+        place=read_place(top) if top.has("place") else None,
+        capture=read_capture(top, poses) if top.has("capture") else CaptureConfig(),
+        object=part,
+    )
+
+
+def _audit(top: Fields, folder: Path) -> AuditConfig:
+    """``audit``: the one key, a file resolved relative to ``folder`` in an existing folder."""
+    audit = top.section("audit", ("file",))
+    path = (folder / audit.string("file")).resolve()
+    if not path.parent.is_dir():
+        audit.fail("file", f"folder does not exist: {path.parent}")
+    return AuditConfig(file=path)

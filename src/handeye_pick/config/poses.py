@@ -1,0 +1,136 @@
+"""The TCP poses a cell config gives: named poses (``poses``), the grasp relative to the object
+(``grasp``), the place poses (``place``) and the pose a capture starts from (``capture``).
+
+Poses are UR pose vectors [x, y, z, rx, ry, rz] in metres and radians; approach and retreat
+standoffs are millimetres along the tool z. Each is checked for a unit mix-up.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from handeye_pick.calibration.files import MAX_ROTVEC_RAD
+from handeye_pick.config.reader import Fields, Number, describe
+from handeye_pick.config.schema import (
+    MAX_JOINT_RAD,
+    MAX_OBJECT_OFFSET_M,
+    MAX_REACH_M,
+    MAX_STANDOFF_MM,
+    MIN_STANDOFF_MM,
+    CaptureConfig,
+    GraspConfig,
+    NamedPose,
+    PlaceConfig,
+)
+from handeye_pick.errors import ConfigError
+from handeye_pick.geometry import Transform, ur_pose_to_matrix
+
+NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
+
+_STANDOFF = Number("mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM)
+_STANDOFFS = {"approach_mm": _STANDOFF, "retreat_mm": _STANDOFF}  # of the grasp and the place
+_CAPTURE_NUMBERS = {
+    "steady_timeout_s": Number(
+        "s", above=0.0, maximum=30.0, default=CaptureConfig.steady_timeout_s
+    ),
+}
+
+
+def pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transform:
+    """A UR pose vector [x, y, z, rx, ry, rz] in m and rad, checked for unit mix-ups."""
+    pose = fields.vector(key, 6)
+    distance = math.hypot(*pose[:3].tolist())  # no overflow (and no numpy warning) at 1e308
+    if distance > max_translation_m:
+        fields.fail(
+            key,
+            f"translation is {distance:g} m long, more than {max_translation_m:g} m: "
+            "this key is in metres (millimetres given?)",
+        )
+    angle = math.hypot(*pose[3:].tolist())
+    if angle > MAX_ROTVEC_RAD:
+        fields.fail(
+            key,
+            f"rotation vector is {angle:g} rad long, more than 2*pi: "
+            "this key is in radians (degrees given?)",
+        )
+    return ur_pose_to_matrix(pose)
+
+
+def read_poses(top: Fields) -> tuple[NamedPose, ...]:
+    """``poses``: a mapping of names to named poses, in file order."""
+    data = top.raw("poses")
+    if not isinstance(data, dict) or not data:
+        top.fail("poses", f"expected a mapping of pose names, got {describe(data)}")
+    poses = []
+    for name in data:
+        if not isinstance(name, str) or not name.strip():
+            top.fail("poses", f"pose names must be non-empty strings, got {name!r}")
+        pose = top.section("poses", data.keys()).section(name, NAMED_POSE_KEYS)
+        poses.append(named_pose(pose, name))
+    return tuple(poses)
+
+
+def named_pose(pose: Fields, name: str) -> NamedPose:
+    """One pose entry, opened with ``NAMED_POSE_KEYS``: exactly one of ``joints_rad`` (six
+    joints, rad, moveJ) or ``tcp_pose`` (``T_base_tcp`` as a UR vector, m and rad, moveL), each
+    checked for a unit mix-up. The calibration pose list (``pose_list``) reads its entries so."""
+    if pose.has("joints_rad") == pose.has("tcp_pose"):
+        pose.fail("", "give exactly one of joints_rad (6 joints, rad) or tcp_pose (m, rad)")
+    if pose.has("joints_rad"):
+        q = pose.vector("joints_rad", 6)
+        if np.any(np.abs(q) > MAX_JOINT_RAD):
+            pose.fail(
+                "joints_rad",
+                f"joint positions must lie within +-2*pi rad, got {q.tolist()} (degrees given?)",
+            )
+        return NamedPose(name, tuple(float(v) for v in q), None)
+    return NamedPose(name, None, pose_vector(pose, "tcp_pose", MAX_REACH_M))
+
+
+def read_grasp(top: Fields) -> GraspConfig:
+    """``grasp``: the approach and retreat standoffs (mm) and ``object_T_tcp`` (m, rad)."""
+    grasp = top.section("grasp", (*_STANDOFFS, "object_T_tcp"))
+    return GraspConfig(
+        approach_mm=grasp.number("approach_mm", _STANDOFFS),
+        retreat_mm=grasp.number("retreat_mm", _STANDOFFS),
+        T_obj_tcp=(
+            pose_vector(grasp, "object_T_tcp", MAX_OBJECT_OFFSET_M)
+            if grasp.has("object_T_tcp")
+            else np.eye(4)
+        ),
+    )
+
+
+def read_place(top: Fields) -> PlaceConfig:
+    """``place``: a list of ``T_base_tcp`` poses (m, rad) and the standoffs (mm)."""
+    place = top.section("place", ("poses", *_STANDOFFS))
+    listed = place.raw("poses")
+    if not isinstance(listed, list) or not listed:
+        place.fail("poses", f"expected a list of TCP poses (m, rad), got {describe(listed)}")
+    indexed = Fields(
+        {str(i): v for i, v in enumerate(listed)},
+        source=place.source,
+        prefix=place.path("poses"),
+        allowed=[str(i) for i in range(len(listed))],
+        error=ConfigError,
+    )
+    return PlaceConfig(
+        T_base_tcp=tuple(pose_vector(indexed, str(i), MAX_REACH_M) for i in range(len(listed))),
+        approach_mm=place.number("approach_mm", _STANDOFFS),
+        retreat_mm=place.number("retreat_mm", _STANDOFFS),
+    )
+
+
+def read_capture(top: Fields, poses: tuple[NamedPose, ...]) -> CaptureConfig:
+    """``capture``: the named pose a capture moves to first, and how long it waits for rest."""
+    capture = top.section("capture", ("pose", *_CAPTURE_NUMBERS))
+    name = capture.string("pose") if capture.has("pose") else None
+    if name is not None and name not in {pose.name for pose in poses}:
+        known = ", ".join(pose.name for pose in poses) or "none"
+        capture.fail("pose", f"no pose named {name!r} under poses (defined: {known})")
+    return CaptureConfig(
+        pose=name,
+        steady_timeout_s=capture.number("steady_timeout_s", _CAPTURE_NUMBERS),
+    )
