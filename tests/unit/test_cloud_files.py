@@ -11,7 +11,7 @@ import pytest
 from numpy.typing import NDArray
 from plyfile import PlyData, PlyElement
 
-from handeye_pick.cloud import files as cloudio
+from handeye_pick.cloud import files as cloud_files
 from handeye_pick.cloud.files import (
     CloudLayout,
     CloudWriter,
@@ -353,7 +353,7 @@ def test_point_cloud_checks_its_arrays(xyz: Any, rgb: Any, message: str) -> None
 def test_chunks_cover_the_file_in_order_across_boundaries(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, name: str, with_colours: bool
 ) -> None:
-    monkeypatch.setattr(cloudio, "CHUNK_POINTS", 7)  # buffers of the readers and the writer
+    monkeypatch.setattr(cloud_files, "CHUNK_POINTS", 7)  # buffers of the readers and the writer
     xyz = random_xyz(5 * 9, np.float32).reshape(5, 9, 3)
     rgb = random_rgb(5 * 9).reshape(5, 9, 3) if with_colours else None
     write_cloud(tmp_path / name, PointCloud(xyz=xyz, rgb=rgb))

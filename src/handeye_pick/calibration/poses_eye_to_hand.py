@@ -1,7 +1,7 @@
 """Robot poses for collecting an eye-to-hand dataset: a board on the flange, turned toward a
 fixed camera.
 
-Eye-in-hand (``handeye_poses.propose_poses``) moves a camera around a fixed board. Eye-to-hand
+Eye-in-hand (``poses_eye_in_hand.propose_poses``) moves a camera around a fixed board. Eye-to-hand
 needs the same views from the other side: the board is held at a point the camera sees and
 turned so that the camera sees it as a camera circling it would. The poses are therefore
 proposed for a virtual camera circling the board (in the board's frame, with the same tilt,

@@ -10,7 +10,7 @@ things make it fail (Tsai and Lenz 1989; OpenCV's calibrateHandEye notes; Zivid'
   amplified by about 1 / sin(angle).
 
 ``motion_spread`` measures both over every pair of captures, from the robot side of the chain
-(``A_N`` of ``handeye_solver``: ``T_base_flange`` eye-in-hand, its inverse eye-to-hand), whose
+(``A_N`` of ``solver``: ``T_base_flange`` eye-in-hand, its inverse eye-to-hand), whose
 relative rotations ``R_i^T R_j`` have their axes in the frame the hand-eye equation uses.
 ``check_motion`` refuses degenerate data and warns about weak data.
 """

@@ -183,7 +183,7 @@ def solve_hand_eye(
     """Calibrate from ``pairs`` without the pair numbers in ``exclude``.
 
     Raises ``CalibrationError`` (exit 2) for an unknown number in ``exclude``, fewer than
-    ``MIN_PAIRS`` pairs, degenerate motion (``handeye_motion.check_motion``), or when no OpenCV
+    ``MIN_PAIRS`` pairs, degenerate motion (``rotation_spread.check_motion``), or when no OpenCV
     method gives a start.
     """
     noise = noise if noise is not None else MeasurementNoise()
