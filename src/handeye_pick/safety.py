@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from handeye_pick.calibration.files import HandEyeCalibration, HandEyeMode
 from handeye_pick.calibration.plausibility import chain_problems
@@ -146,13 +147,23 @@ def tilt_deg(T_base_tcp: Transform) -> float:
 
 def workspace_problem(T_base_tcp: Transform, workspace: WorkspaceConfig) -> str | None:
     """Why the TCP position lies outside the workspace box, or None when it is inside."""
-    p_mm = T_base_tcp[:3, 3] * 1000.0
+    return _box_problem(T_base_tcp[:3, 3], np.zeros(3), workspace)
+
+
+def _box_problem(
+    center_m: NDArray[np.float64], extent_m: NDArray[np.float64], workspace: WorkspaceConfig
+) -> str | None:
+    """Why the box ``center_m`` +- ``extent_m`` (base frame, m) reaches outside the workspace,
+    or None when it lies inside."""
+    low_mm, high_mm = (center_m - extent_m) * 1000.0, (center_m + extent_m) * 1000.0
     outside = []
-    for axis, value, low, high in zip("xyz", p_mm, workspace.min_mm, workspace.max_mm, strict=True):
-        if not value >= low:
-            outside.append(f"{axis} {value:.1f} mm below min {low:g} mm")
-        elif not value <= high:
-            outside.append(f"{axis} {value:.1f} mm above max {high:g} mm")
+    for axis, low, high, box_low, box_high in zip(
+        "xyz", low_mm, high_mm, workspace.min_mm, workspace.max_mm, strict=True
+    ):
+        if not low >= box_low:
+            outside.append(f"{axis} {low:.1f} mm below min {box_low:g} mm")
+        elif not high <= box_high:
+            outside.append(f"{axis} {high:.1f} mm above max {box_high:g} mm")
     return ", ".join(outside) if outside else None
 
 
@@ -168,6 +179,18 @@ class PoseTarget:
     name: str
     T_base_tcp: Transform
     fixed: bool = False
+
+
+@dataclass(frozen=True)
+class CornerTarget:
+    """A blended target: the TCP passes within ``radius_m`` of ``center_m`` (base frame, m),
+    inside the disc of that radius in the plane of its two segments, whose half-size along
+    the base axes is ``extent_m`` (``cell/blend.py``)."""
+
+    name: str
+    center_m: NDArray[np.float64]
+    radius_m: float
+    extent_m: NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -228,6 +251,17 @@ def _target_checks(
     ]
 
 
+def _corner_check(corner: CornerTarget, workspace: WorkspaceConfig) -> CheckResult:
+    box = _box_problem(corner.center_m, corner.extent_m, workspace)
+    where = f"a {corner.radius_m * 1000.0:.1f} mm blend around the target"
+    return CheckResult(
+        "corner_workspace",
+        corner.name,
+        box is None,
+        f"{where} stays inside the box" if box is None else f"{where} reaches out: {box}",
+    )
+
+
 def _joint_checks(target: JointTarget, arm: RobotArm, verdicts: ControllerVerdicts) -> CheckResult:
     key = np.array(target.q_rad).tobytes()
     if key not in verdicts:
@@ -250,12 +284,14 @@ def preflight(
     arm: RobotArm,
     *,
     joint_targets: Sequence[JointTarget] = (),
+    corners: Sequence[CornerTarget] = (),
     verdicts: ControllerVerdicts | None = None,
 ) -> list[CheckResult]:
     """Run every check on every target and on the motion parameters.
 
     Pose targets (``T_base_tcp``): workspace box, tilt, the controller's safety limits and IK.
     Joint targets (a named pose taught on the pendant): the controller's joint safety limits.
+    Blended corners: all the TCP may pass through while rounding one lies in the workspace box.
     Returns all results when every check passed; otherwise raises ``PreflightRefusal`` carrying
     all results (for the audit record). Only asks the controller, never moves it, and asks once
     per distinct target; verdicts on fixed targets are kept in ``verdicts`` for the caller's
@@ -269,6 +305,7 @@ def preflight(
         verdict = _ask_controller(target.T_base_tcp, arm, cache)
         results.extend(_target_checks(target.name, target.T_base_tcp, workspace, verdict))
     results.extend(_joint_checks(target, arm, session) for target in joint_targets)
+    results.extend(_corner_check(corner, workspace) for corner in corners)
     if not all(r.passed for r in results):
         raise PreflightRefusal(results)
     return results

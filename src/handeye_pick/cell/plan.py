@@ -16,7 +16,9 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from handeye_pick.calibration.files import HandEyeCalibration
+from handeye_pick.cell.blend import corners, with_blends
 from handeye_pick.cell.grasp import backed_off, plan_targets
+from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.config.schema import CellConfig, PlaceConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import PlanRefused
@@ -25,6 +27,7 @@ from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
     CheckResult,
     ControllerVerdicts,
+    CornerTarget,
     JointTarget,
     PoseTarget,
     PreflightRefusal,
@@ -61,43 +64,6 @@ class PickPlan:
     def targets_ur(self) -> dict[str, list[float]]:
         """The three targets as UR pose vectors (m, rad), for reports and audit records."""
         return {name: ur_pose_list(T) for name, T in self.targets().items()}
-
-
-@dataclass(frozen=True)
-class Move:
-    """A moveL of the TCP to ``T_base_tcp``.
-
-    ``slow`` moves run at the grasp speed (onto the object or the place). ``fixed`` targets come
-    from the config (place poses, named poses): the controller's verdict on them may be reused
-    for the rest of the session.
-    """
-
-    name: str
-    T_base_tcp: Transform
-    slow: bool = False
-    fixed: bool = False
-
-
-@dataclass(frozen=True)
-class JointMove:
-    """A moveJ to the joint positions ``q_rad`` (rad) of a named pose from the config."""
-
-    name: str
-    q_rad: tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class Grip:
-    """Work the gripper: ``close`` grasps (then confirms), otherwise releases."""
-
-    close: bool
-
-    @property
-    def name(self) -> str:
-        return "gripper close" if self.close else "gripper open"
-
-
-Step = Move | JointMove | Grip
 
 
 @dataclass(frozen=True)
@@ -162,8 +128,14 @@ def pick_steps(plan: PickPlan, *, grip: bool) -> list[Step]:
 
 
 def place_steps(T_base_tcp_place: Transform, place: PlaceConfig, *, grip: bool) -> list[Step]:
-    """Approach the place pose from above its tool z, put down (slow), release, retreat."""
+    """Through the ``via`` poses, approach the place pose from above its tool z, put down
+    (slow), release, retreat."""
     steps: list[Step] = [
+        Move(f"via {pose.name}", pose.T_base_tcp, fixed=True)
+        for pose in place.via
+        if pose.T_base_tcp is not None  # the config loader takes only TCP poses as via poses
+    ]
+    steps += [
         Move(
             "place-approach", backed_off(T_base_tcp_place, place.approach_mm / 1000.0), fixed=True
         ),
@@ -177,16 +149,47 @@ def place_steps(T_base_tcp_place: Transform, place: PlaceConfig, *, grip: bool) 
     return steps
 
 
+def blended(config: CellConfig, steps: Sequence[Step], T_base_tcp_start: Transform) -> list[Step]:
+    """``steps`` with their corners rounded as ``motion.blend_mm`` and ``grasp.straight_mm``
+    allow (``blend.with_blends``), for a TCP standing at ``T_base_tcp_start``."""
+    return with_blends(
+        steps,
+        T_base_tcp_start,
+        config.motion.blend_mm / 1000.0,
+        config.grasp.straight_mm / 1000.0,
+    )
+
+
 def check_steps(
-    config: CellConfig, steps: Sequence[Step], arm: RobotArm, session_verdicts: ControllerVerdicts
+    config: CellConfig,
+    steps: Sequence[Step],
+    arm: RobotArm,
+    session_verdicts: ControllerVerdicts,
+    T_base_tcp_start: Transform | None = None,
 ) -> list[CheckResult]:
-    """Every pre-flight check on every move of ``steps`` (``safety.preflight``); raises
-    ``PreflightRefusal`` listing all results when one fails. Verdicts on ``fixed`` targets are
-    kept in ``session_verdicts`` (the caller clears it when the session restarts)."""
+    """Every pre-flight check on every move of ``steps`` (``safety.preflight``), and on every
+    blended corner the room the TCP needs around it (which needs ``T_base_tcp_start``, where
+    the sequence starts); raises ``PreflightRefusal`` listing all results when one fails.
+    Verdicts on ``fixed`` targets are kept in ``session_verdicts`` (the caller clears it when
+    the session restarts)."""
     poses = [PoseTarget(s.name, s.T_base_tcp, s.fixed) for s in steps if isinstance(s, Move)]
     joints = [JointTarget(s.name, s.q_rad) for s in steps if isinstance(s, JointMove)]
+    rounded = (
+        [
+            CornerTarget(c.name, c.center_m, c.radius_m, c.extent_m)
+            for c in corners(steps, T_base_tcp_start)
+        ]
+        if T_base_tcp_start is not None
+        else []
+    )
     return preflight(
-        poses, config.motion, config.workspace, arm, joint_targets=joints, verdicts=session_verdicts
+        poses,
+        config.motion,
+        config.workspace,
+        arm,
+        joint_targets=joints,
+        corners=rounded,
+        verdicts=session_verdicts,
     )
 
 
@@ -250,6 +253,7 @@ def choose(
     *,
     T_base_tcp_place: Transform | None,
     grip: bool,
+    blend: bool = True,
     standoff_m: float = 0.0,
     on_plan: Callable[[PickPlan], None] | None = None,
 ) -> tuple[Chosen, list[CandidateRefusal]]:
@@ -258,7 +262,8 @@ def choose(
     and the refusals of those before it.
 
     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
-    ``grip`` False leaves the gripper out of the steps (a touch test). Raises
+    ``grip`` False leaves the gripper out of the steps (a touch test), ``blend`` False keeps
+    every target a stop (``motion.blend_mm`` rounds the corners otherwise). Raises
     ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
     (every check listed) when there was only one.
     """
@@ -272,11 +277,14 @@ def choose(
         steps = pick_steps(plan, grip=grip)
         if T_base_tcp_place is not None and config.place is not None:
             steps += place_steps(T_base_tcp_place, config.place, grip=grip)
+        T_base_tcp_start = compose(T_base_flange, T_flange_tcp)
+        if blend:
+            steps = blended(config, steps, T_base_tcp_start)
         plausible = chain_checks(config, calibration, detection.T_cam_obj, T_base_flange)
         try:
             if not all(check.passed for check in plausible):
                 raise PreflightRefusal(plausible)  # nothing asked of the controller
-            checks = plausible + check_steps(config, steps, arm, verdicts)
+            checks = plausible + check_steps(config, steps, arm, verdicts, T_base_tcp_start)
         except PreflightRefusal as refusal:
             failed = [f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed]
             refusals.append(CandidateRefusal(index, detection.source, failed, refusal.results))

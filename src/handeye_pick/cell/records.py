@@ -14,7 +14,8 @@ from dataclasses import asdict
 
 from handeye_pick.audit import AuditLog
 from handeye_pick.calibration.files import HandEyeCalibration
-from handeye_pick.cell.plan import Grip, Move, PickPlan, Step
+from handeye_pick.cell.plan import PickPlan
+from handeye_pick.cell.steps import Grip, Move, Step
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import RobotFault, Terminated, ending
@@ -111,6 +112,17 @@ def steps_record(steps: Sequence[Step]) -> dict[str, object]:
         for step in steps
         if not isinstance(step, Grip)
     }
+
+
+def blends_record(steps: Sequence[Step]) -> dict[str, object]:
+    """``{"blends_mm": {move: radius}}`` for the blended targets of ``steps`` (mm; the moves
+    between two stops are driven as one path), or nothing when every target is a stop."""
+    blends = {
+        step.name: round(step.blend_m * 1000.0, 3)
+        for step in steps
+        if isinstance(step, Move) and step.blend_m > 0.0
+    }
+    return {"blends_mm": blends} if blends else {}
 
 
 def plan_matrix(T: Transform) -> list[list[float]]:

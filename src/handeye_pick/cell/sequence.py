@@ -12,12 +12,14 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from handeye_pick.cell.blend import BLEND_SHARE, MIN_BLEND_M
 from handeye_pick.cell.payload import held_payload
-from handeye_pick.cell.plan import RETREAT, Grip, JointMove, Move, Step
+from handeye_pick.cell.plan import RETREAT
+from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.config.schema import CellConfig, Payload
 from handeye_pick.errors import (
     HandEyePickError,
@@ -31,7 +33,7 @@ from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_lis
 from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import ProgressCallback, RobotArm
+from handeye_pick.robot.port import ProgressCallback, RobotArm, Waypoint
 from handeye_pick.safety import check_joint_command, check_motion_command, ensure_remote_control
 
 TIMEOUT_FACTOR = 1.5
@@ -111,20 +113,28 @@ def execute(
     not place it), watched the same way.
     """
     run = _Run(config, arm, progress, outcome, gripper, holding)
-    for step in steps:
+    index = 0
+    while index < len(steps):
+        step = steps[index]
         outcome["step"] = step.name
+        # Each move confirmed on its own (before_move) runs on its own: no blends.
+        path = path_at(steps, index, run.last_move) if before_move is None else []
         try:
             if isinstance(step, Grip):
                 run.grip(step)
-                continue
-            if before_move is not None:
-                before_move(step.name)
-            run.move(step)
+            elif len(path) > 1:
+                run.path(path)
+            else:
+                if before_move is not None:
+                    before_move(step.name)
+                run.move(step)
         except (SafetyRefusal, InputError) as exc:
             if not run.reached:  # nothing has moved yet: a refusal, as before the sequence
                 raise
             raise run.aborted(step.name, exc) from exc
-        if step.name == run.last_move:
+        ran = [step.name] if len(path) <= 1 else [move.name for move in path]
+        index += len(ran)
+        if run.last_move in ran:
             break
     del outcome["step"]
     return Executed(run.reached, run.grasp)
@@ -205,20 +215,67 @@ class _Run:
     def move(self, step: Move | JointMove) -> None:
         """One moveJ or moveL, its command capped and its timeout bounded before it is sent; a
         confirmed part is watched while it runs."""
-        watched = self.gripper if self.grasp is GraspState.CONFIRMED else None
         command = "moveJ" if isinstance(step, JointMove) else "moveL"
         ensure_remote_control(self.arm.remote_control(), self.config.robot.host, command)
         send = self._joint_command(step) if isinstance(step, JointMove) else self._linear(step)
+        reached = self._drive(step.name, send)
+        self.T_base_tcp_from = reached if isinstance(step, JointMove) else step.T_base_tcp
+        self._reached(step.name, reached)
+
+    def path(self, moves: Sequence[Move]) -> None:
+        """Consecutive moveL targets as one blended path (``path_at``), every waypoint's speed
+        capped and the whole path's timeout bounded before it is sent; ``outcome["step"]``
+        follows the waypoint in progress. Only the last target is a stop, so only its pose is
+        recorded as reached."""
+        motion = self.config.motion
+        ensure_remote_control(self.arm.remote_control(), self.config.robot.host, "moveL path")
+        T_from = self.T_base_tcp_from if self.T_base_tcp_from is not None else self.arm.tcp_pose()
+        waypoints, timeout_s = [], motion.timeout_margin_s
+        for move in moves:
+            speed_mps = self._speed_mps(move)
+            timeout_s += move_timeout_s(T_from, move.T_base_tcp, speed_mps, motion.accel_mps2, 0.0)
+            waypoints.append(Waypoint(move.T_base_tcp, speed_mps, motion.accel_mps2, move.blend_m))
+            T_from = move.T_base_tcp
+        waypoints[0] = self._first_corner(waypoints[0])
+        names = [move.name for move in moves]
+
+        def follow(watch: ProgressCallback) -> ProgressCallback:
+            def on_progress(fraction: float) -> None:
+                self.outcome["step"] = names[min(int(fraction * len(names)), len(names) - 1)]
+                watch(fraction)
+
+            return on_progress
+
+        reached = self._drive(
+            " -> ".join(names),
+            lambda watch: self.arm.move_path(waypoints, timeout_s, follow(watch)),
+        )
+        self.T_base_tcp_from = moves[-1].T_base_tcp
+        self._reached(names[-1], reached)
+
+    def _first_corner(self, first: Waypoint) -> Waypoint:
+        """The first corner's radius was planned from where the arm stood then; it never takes
+        more than ``BLEND_SHARE`` of the segment from where the arm stands now."""
+        if first.blend_m == 0.0:
+            return first
+        here = self.arm.tcp_pose()[:3, 3]
+        room = BLEND_SHARE * float(np.linalg.norm(first.T_base_tcp[:3, 3] - here))
+        return replace(first, blend_m=min(first.blend_m, room) if room >= MIN_BLEND_M else 0.0)
+
+    def _drive(self, name: str, send: Callable[[ProgressCallback], Transform]) -> Transform:
+        """Send one motion command; while a confirmed part is carried, watch it."""
+        watched = self.gripper if self.grasp is GraspState.CONFIRMED else None
         try:
-            with self.progress.step(step.name) as report:
-                reached = send(_watching(report, watched, step.name))
+            with self.progress.step(name) as report:
+                return send(_watching(report, watched, name))
         except PartDropped:
             self.grasp = None  # the part is gone: the tool alone hangs on the flange again
             self._tool_payload_after_loss()
             raise
-        self.reached[step.name] = reached
-        self.reached_ur[step.name] = ur_pose_list(reached)
-        self.T_base_tcp_from = reached if isinstance(step, JointMove) else step.T_base_tcp
+
+    def _reached(self, name: str, reached: Transform) -> None:
+        self.reached[name] = reached
+        self.reached_ur[name] = ur_pose_list(reached)
 
     def _joint_command(self, step: JointMove) -> Callable[[ProgressCallback], Transform]:
         motion = self.config.motion
@@ -234,7 +291,8 @@ class _Run:
             step.q_rad, motion.joint_speed_rps, motion.joint_accel_rps2, timeout_s, watch
         )
 
-    def _linear(self, step: Move) -> Callable[[ProgressCallback], Transform]:
+    def _speed_mps(self, step: Move) -> float:
+        """The speed of a moveL, checked against its own cap (the grasp speed's for a descent)."""
         motion = self.config.motion
         speed_mps, cap_mps = (
             (motion.grasp_speed_mps, MAX_GRASP_SPEED_MPS)
@@ -242,6 +300,11 @@ class _Run:
             else (motion.speed_mps, MAX_SPEED_MPS)
         )
         check_motion_command(speed_mps, motion.accel_mps2, max_speed_mps=cap_mps)
+        return speed_mps
+
+    def _linear(self, step: Move) -> Callable[[ProgressCallback], Transform]:
+        motion = self.config.motion
+        speed_mps = self._speed_mps(step)
         T_from = self.T_base_tcp_from if self.T_base_tcp_from is not None else self.arm.tcp_pose()
         timeout_s = move_timeout_s(
             T_from, step.T_base_tcp, speed_mps, motion.accel_mps2, motion.timeout_margin_s
@@ -249,6 +312,21 @@ class _Run:
         return lambda watch: self.arm.move_linear(
             step.T_base_tcp, speed_mps, motion.accel_mps2, timeout_s, watch
         )
+
+
+def path_at(steps: Sequence[Step], index: int, last_move: str | None) -> list[Move]:
+    """The moveL targets driven together from ``steps[index]`` (none when it is no moveL):
+    while a target is blended (``blend_m`` > 0) the next moveL joins it; a gripper action, a
+    moveJ, a stop or ``last_move`` (a missed grasp's retreat) ends the path."""
+    path: list[Move] = []
+    while index + len(path) < len(steps):
+        step = steps[index + len(path)]
+        if not isinstance(step, Move):
+            break
+        path.append(step)
+        if step.blend_m == 0.0 or step.name == last_move:
+            break
+    return path
 
 
 def _close(gripper: Gripper, progress: Progress, commands: list[dict[str, object]]) -> GraspState:

@@ -47,11 +47,9 @@ from handeye_pick.cell.lock import CellLock
 from handeye_pick.cell.plan import (
     CandidateRefusal,
     Chosen,
-    JointMove,
-    Move,
     PickPlan,
-    Step,
     StepError,
+    blended,
     chain_plan,
     check_steps,
     choose,
@@ -59,7 +57,13 @@ from handeye_pick.cell.plan import (
     place_steps,
     reached_errors,
 )
-from handeye_pick.cell.records import append_failure, audited_outcome, plan_record, steps_record
+from handeye_pick.cell.records import (
+    append_failure,
+    audited_outcome,
+    blends_record,
+    plan_record,
+    steps_record,
+)
 from handeye_pick.cell.sequence import Executed, execute
 from handeye_pick.cell.status import (
     CellStatus,
@@ -69,6 +73,7 @@ from handeye_pick.cell.status import (
     session_status,
     unread,
 )
+from handeye_pick.cell.steps import JointMove, Move, Step
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import CellConfig, NamedPose, PlaceConfig
 from handeye_pick.detection import Detection
@@ -561,6 +566,7 @@ class Cell:
             self._fixed_verdicts,
             T_base_tcp_place=self._next_place_pose(place) if place is not None else None,
             grip=pick.touch is None,
+            blend=pick.touch is None,  # a touch test stops at every target
             standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
             on_plan=pick.on_plan,
         )
@@ -625,9 +631,18 @@ class Cell:
         def prepare(
             T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
         ) -> Planned:
-            checks = check_steps(self.config, steps, self.arm, self._fixed_verdicts)
+            # Where the arm stands is read only when corners are rounded (blend_mm > 0).
+            T_base_tcp_start = self.arm.tcp_pose() if self.config.motion.blend_mm > 0 else None
+            rounded = (
+                blended(self.config, steps, T_base_tcp_start)
+                if T_base_tcp_start is not None
+                else steps
+            )
+            checks = check_steps(
+                self.config, rounded, self.arm, self._fixed_verdicts, T_base_tcp_start
+            )
             plan = {"operation": what, "config": str(self.config.path)}
-            return Planned(steps, checks, {**plan, "host": self.config.robot.host})
+            return Planned(rounded, checks, {**plan, "host": self.config.robot.host})
 
         def finish(done: Executed | None) -> dict[str, object]:
             if done is not None:
@@ -675,6 +690,7 @@ class Cell:
                     **context,
                     **planned.record,
                     "targets": steps_record(planned.steps),
+                    **blends_record(planned.steps),
                     "checks": [asdict(check) for check in planned.checks],
                 }
             )

@@ -17,8 +17,16 @@ from handeye_pick.config.payload import read_object
 from handeye_pick.config.poses import read_capture, read_grasp, read_place, read_poses
 from handeye_pick.config.reader import Fields, read_yaml_mapping
 from handeye_pick.config.robot import read_robot
-from handeye_pick.config.schema import AuditConfig, CaptureConfig, CellConfig
+from handeye_pick.config.schema import (
+    STRAIGHT_MM_DEFAULT,
+    STRAIGHT_MM_FINGERS,
+    AuditConfig,
+    CaptureConfig,
+    CellConfig,
+    RobotConfig,
+)
 from handeye_pick.errors import ConfigError
+from handeye_pick.gripper.config import Robotiq2FConfig
 
 _SECTIONS = (
     "robot",
@@ -56,16 +64,23 @@ def load_config(path: Path) -> CellConfig:
     return CellConfig(
         robot=robot,
         hand_eye=read_hand_eye(top, path.parent),
-        grasp=read_grasp(top),
+        grasp=read_grasp(top, _default_straight_mm(robot)),
         motion=read_motion(top),
         workspace=read_workspace(top),
         audit=_audit(top, path.parent),
         path=path,
         poses=poses,
-        place=read_place(top) if top.has("place") else None,
+        place=read_place(top, poses) if top.has("place") else None,
         capture=read_capture(top, poses) if top.has("capture") else CaptureConfig(),
         object=part,
     )
+
+
+def _default_straight_mm(robot: RobotConfig) -> float:
+    """How much of a descent stays straight when nothing says: more for fingers than a cup."""
+    if isinstance(robot.gripper, Robotiq2FConfig):
+        return STRAIGHT_MM_FINGERS
+    return STRAIGHT_MM_DEFAULT
 
 
 def _audit(top: Fields, folder: Path) -> AuditConfig:

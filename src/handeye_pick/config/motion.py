@@ -11,6 +11,7 @@ import numpy as np
 
 from handeye_pick.config.reader import Fields, Number
 from handeye_pick.config.schema import (
+    MAX_BLEND_MM,
     MAX_WORKSPACE_MM,
     MIN_WORKSPACE_EXTENT_MM,
     MotionConfig,
@@ -40,6 +41,7 @@ _MOTION_NUMBERS = {
     "joint_accel_rps2": Number(
         "rad/s^2", above=0.0, maximum=MAX_JOINT_ACCEL_RPS2, default=MotionConfig.joint_accel_rps2
     ),
+    "blend_mm": Number("mm", minimum=0.0, maximum=MAX_BLEND_MM, default=MotionConfig.blend_mm),
 }
 _WORKSPACE_NUMBERS = {"max_tilt_deg": Number("deg", minimum=0.0, maximum=180.0)}
 
@@ -69,6 +71,7 @@ def read_motion(top: Fields) -> MotionConfig:
         timeout_margin_s=motion.number("timeout_margin_s", _MOTION_NUMBERS),
         joint_speed_rps=motion.number("joint_speed_rps", _MOTION_NUMBERS),
         joint_accel_rps2=motion.number("joint_accel_rps2", _MOTION_NUMBERS),
+        blend_mm=motion.number("blend_mm", _MOTION_NUMBERS),
     )
 
 

@@ -8,6 +8,7 @@ standoffs are millimetres along the tool z. Each is checked for a unit mix-up.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -31,6 +32,7 @@ NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 
 _STANDOFF = Number("mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM)
 _STANDOFFS = {"approach_mm": _STANDOFF, "retreat_mm": _STANDOFF}  # of the grasp and the place
+_STRAIGHT = Number("mm", minimum=0.0, maximum=MAX_STANDOFF_MM)
 _CAPTURE_NUMBERS = {
     "steady_timeout_s": Number(
         "s", above=0.0, maximum=30.0, default=CaptureConfig.steady_timeout_s
@@ -89,9 +91,11 @@ def named_pose(pose: Fields, name: str) -> NamedPose:
     return NamedPose(name, None, pose_vector(pose, "tcp_pose", MAX_REACH_M))
 
 
-def read_grasp(top: Fields) -> GraspConfig:
-    """``grasp``: the approach and retreat standoffs (mm) and ``object_T_tcp`` (m, rad)."""
-    grasp = top.section("grasp", (*_STANDOFFS, "object_T_tcp"))
+def read_grasp(top: Fields, default_straight_mm: float) -> GraspConfig:
+    """``grasp``: the approach and retreat standoffs (mm), ``object_T_tcp`` (m, rad) and
+    ``straight_mm`` (mm; ``default_straight_mm`` when absent, set by the kind of gripper)."""
+    grasp = top.section("grasp", (*_STANDOFFS, "object_T_tcp", "straight_mm"))
+    straight = {"straight_mm": replace(_STRAIGHT, default=default_straight_mm)}
     return GraspConfig(
         approach_mm=grasp.number("approach_mm", _STANDOFFS),
         retreat_mm=grasp.number("retreat_mm", _STANDOFFS),
@@ -100,12 +104,14 @@ def read_grasp(top: Fields) -> GraspConfig:
             if grasp.has("object_T_tcp")
             else np.eye(4)
         ),
+        straight_mm=grasp.number("straight_mm", straight),
     )
 
 
-def read_place(top: Fields) -> PlaceConfig:
-    """``place``: a list of ``T_base_tcp`` poses (m, rad) and the standoffs (mm)."""
-    place = top.section("place", ("poses", *_STANDOFFS))
+def read_place(top: Fields, poses: tuple[NamedPose, ...]) -> PlaceConfig:
+    """``place``: a list of ``T_base_tcp`` poses (m, rad), the standoffs (mm) and ``via``, the
+    names of TCP poses under ``poses`` a transfer passes through, in order."""
+    place = top.section("place", ("poses", "via", *_STANDOFFS))
     listed = place.raw("poses")
     if not isinstance(listed, list) or not listed:
         place.fail("poses", f"expected a list of TCP poses (m, rad), got {describe(listed)}")
@@ -120,7 +126,26 @@ def read_place(top: Fields) -> PlaceConfig:
         T_base_tcp=tuple(pose_vector(indexed, str(i), MAX_REACH_M) for i in range(len(listed))),
         approach_mm=place.number("approach_mm", _STANDOFFS),
         retreat_mm=place.number("retreat_mm", _STANDOFFS),
+        via=_via(place, poses) if place.has("via") else (),
     )
+
+
+def _via(fields: Fields, poses: tuple[NamedPose, ...]) -> tuple[NamedPose, ...]:
+    """``via``: a list of names of TCP poses (a moveL passes through them; a joint pose would
+    make the transfer a moveJ, whose corners a TCP radius does not describe)."""
+    names = fields.raw("via")
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        fields.fail("via", f"expected a list of pose names, got {describe(names)}")
+    by_name = {pose.name: pose for pose in poses}
+    via = []
+    for name in names:
+        if name not in by_name:
+            known = ", ".join(by_name) or "none"
+            fields.fail("via", f"no pose named {name!r} under poses (defined: {known})")
+        if by_name[name].T_base_tcp is None:
+            fields.fail("via", f"pose {name!r} is a joint pose: a via pose must be a tcp_pose")
+        via.append(by_name[name])
+    return tuple(via)
 
 
 def read_capture(top: Fields, poses: tuple[NamedPose, ...]) -> CaptureConfig:

@@ -26,6 +26,12 @@ MAX_TCP_OFFSET_M = 1.0  # a TCP offset in mm (150) typed into this m key would b
 MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
 MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
 MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
+MAX_BLEND_MM = 300.0  # a corner rounded wider than 30 cm is no longer the path that was taught
+# The end of a descent (the start of an ascent) that stays straight along the tool axis when
+# corners are blended: a suction cup's lip and compression with room to spare, and a two-finger
+# gripper's open fingers (a Robotiq 2F-85's are about 40 mm deep) around the part.
+STRAIGHT_MM_DEFAULT = 20.0
+STRAIGHT_MM_FINGERS = 40.0
 MAX_WORKSPACE_MM = 3000.0  # no UR arm reaches farther than 1.75 m from its base
 MAX_REACH_M = MAX_WORKSPACE_MM / 1000.0  # a named or place TCP pose farther out is in mm
 MAX_JOINT_RAD = 2.0 * math.pi  # UR joint range is +-2*pi: a larger value is in degrees
@@ -85,6 +91,8 @@ class GraspConfig:
     approach_mm: float  # approach point: grasp moved back along the grasp's tool z (mm)
     retreat_mm: float  # retreat point: grasp moved back along the grasp's tool z (mm)
     T_obj_tcp: Transform = field(default_factory=lambda: np.eye(4))  # TCP at grasp in object frame
+    # The last part of every descent and the first of every ascent that no blend cuts into (mm)
+    straight_mm: float = STRAIGHT_MM_DEFAULT
 
 
 @dataclass(frozen=True)
@@ -98,6 +106,9 @@ class MotionConfig:
     timeout_margin_s: float = 5.0  # added to a move's expected duration before it counts as hung
     joint_speed_rps: float = 0.5  # moveJ to a named joint pose: fastest joint (rad/s)
     joint_accel_rps2: float = 1.0  # moveJ to a named joint pose (rad/s^2)
+    # The largest radius a corner between two moveL targets is rounded with (mm); 0: the arm
+    # stops at every target, as single moveL commands do
+    blend_mm: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -133,6 +144,7 @@ class PlaceConfig:
     T_base_tcp: tuple[Transform, ...]  # place poses (m), the n-th place uses n % len
     approach_mm: float  # approach point: place pose moved back along its tool z (mm)
     retreat_mm: float  # retreat point after the release, the same way back (mm)
+    via: tuple[NamedPose, ...] = ()  # TCP poses a transfer passes through on its way to a place
 
 
 @dataclass(frozen=True)

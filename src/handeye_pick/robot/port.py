@@ -89,7 +89,19 @@ class RobotStatus:
 
 
 ProgressCallback = Callable[[float], None]
-"""Called while a motion runs with the fraction of it done, 0.0 to 1.0 (best estimate)."""
+"""Called while a motion runs with the fraction of it done, 0.0 to 1.0 (best estimate). For a
+path of n waypoints the fraction lies in [k/n, (k+1)/n) while the arm heads for waypoint k."""
+
+
+@dataclass(frozen=True)
+class Waypoint:
+    """One target of a blended moveL path: ``T_base_tcp`` (m), the speed (m/s) and acceleration
+    (m/s^2) of the segment that leads to it, and the radius (m) its corner is rounded with."""
+
+    T_base_tcp: Transform
+    speed_mps: float
+    accel_mps2: float
+    blend_m: float
 
 
 class RobotArm(Protocol):
@@ -158,6 +170,17 @@ class RobotArm(Protocol):
 
         ``timeout_s`` is the longest the move may take at full speed; the pendant's speed slider
         stretches it in wall-clock time."""
+        ...
+
+    def move_path(
+        self,
+        waypoints: Sequence[Waypoint],
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """One blended moveL path through ``waypoints`` (the last one's radius is 0: the arm
+        stops there), watched and stopped exactly as ``move_linear``; returns the reached
+        ``T_base_tcp`` at the last waypoint. ``timeout_s`` bounds the whole path."""
         ...
 
     def move_joints(

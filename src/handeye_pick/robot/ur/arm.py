@@ -39,6 +39,7 @@ from handeye_pick.robot.port import (
     RobotStatus,
     RuntimeState,
     SafetyMode,
+    Waypoint,
     mode_name,
 )
 from handeye_pick.robot.ur.child import Child
@@ -79,14 +80,22 @@ TOOL_OUTPUT_FIRST_BIT = 16
 
 @dataclass(frozen=True)
 class _MoveKind:
-    """One async motion command as the child sends it: moveL (pose, m/s, m/s^2) or moveJ
-    (joints, rad/s, rad/s^2)."""
+    """One async motion command as the child sends it: moveL (pose, m/s, m/s^2), moveJ
+    (joints, rad/s, rad/s^2) or a moveL path (waypoint rows, see ``move_path``)."""
 
     name: str
     operation: str
-    target: list[float]
-    speed: float
-    accel: float
+    args: tuple[object, ...]  # the child operation's arguments
+    description: str  # the target and its speeds, for the log and a refusal
+
+
+def _single(
+    name: str, operation: str, target: list[float], speed: float, accel: float
+) -> _MoveKind:
+    """A single moveL or moveJ to ``target`` at ``speed`` and ``accel``."""
+    return _MoveKind(
+        name, operation, (target, speed, accel), f"{_fmt_pose(target)} v={speed:.3f} a={accel:.3f}"
+    )
 
 
 def _fmt_pose(pose: list[float]) -> str:
@@ -237,11 +246,48 @@ class URRtdeArm:
             return motion_fraction(T_start, T_now, T_base_tcp)
 
         return self._move(
-            _MoveKind("moveL", "move_l_async", ur_pose_list(T_base_tcp), speed_mps, accel_mps2),
+            _single("moveL", "move_l_async", ur_pose_list(T_base_tcp), speed_mps, accel_mps2),
             timeout_s,
             on_progress,
             fraction,
             lambda reached: self._check_reached(reached, T_base_tcp),
+            lambda: self.stop_linear(self._stop_decel_mps2),
+        )
+
+    def move_path(
+        self,
+        waypoints: Sequence[Waypoint],
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """One async moveL path (ur_rtde's ``moveL(path)``: each row ``[x, y, z, rx, ry, rz,
+        speed, accel, blend]``) watched exactly as ``move_linear``; the last waypoint's radius
+        is sent as 0 whatever it says, so the arm ends at rest on it. Progress: the controller
+        reports the waypoint in progress (docs/ur-rtde.md, "Blended paths")."""
+        if not waypoints:
+            raise SafetyRefusal("a moveL path needs at least one waypoint, got none")
+        rows = [
+            [*ur_pose_list(w.T_base_tcp), w.speed_mps, w.accel_mps2, w.blend_m] for w in waypoints
+        ]
+        rows[-1][8] = 0.0
+        targets = [w.T_base_tcp for w in waypoints]
+
+        def fraction(start: Sample, now: Sample) -> float:
+            index = min(max(now.async_progress, 0), len(targets) - 1)
+            T_from = ur_pose_to_matrix(start.tcp_pose) if index == 0 else targets[index - 1]
+            within = motion_fraction(T_from, ur_pose_to_matrix(now.tcp_pose), targets[index])
+            return min(index + within, len(targets) - 1e-6) / len(targets)
+
+        described = " -> ".join(
+            f"{_fmt_pose(row[:6])} v={row[6]:.3f} a={row[7]:.3f} r={row[8] * 1000:.1f} mm"
+            for row in rows
+        )
+        return self._move(
+            _MoveKind("moveL path", "move_l_path_async", (rows,), described),
+            timeout_s,
+            on_progress,
+            fraction,
+            lambda reached: self._check_reached(reached, targets[-1]),
             lambda: self.stop_linear(self._stop_decel_mps2),
         )
 
@@ -267,7 +313,7 @@ class URRtdeArm:
             return min(1.0, max(0.0, 1.0 - left / total))
 
         return self._move(
-            _MoveKind("moveJ", "move_j_async", target, speed_rps, accel_rps2),
+            _single("moveJ", "move_j_async", target, speed_rps, accel_rps2),
             timeout_s,
             on_progress,
             fraction,
@@ -316,12 +362,10 @@ class URRtdeArm:
         start = self._sample("fresh_sample")
         try:
             self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
-            log.debug(
-                "%s %s v=%.3f a=%.3f", kind.name, _fmt_pose(kind.target), kind.speed, kind.accel
-            )
-            if not self._child.call(kind.operation, kind.target, kind.speed, kind.accel):
+            log.debug("%s %s", kind.name, kind.description)
+            if not self._child.call(kind.operation, *kind.args):
                 after = self._sample("sample")
-                raise self._fault(f"{kind.name} to {_fmt_pose(kind.target)} was refused", after)
+                raise self._fault(f"{kind.name} to {kind.description} was refused", after)
             self._watch_motion(kind.name, start, timeout_s, on_progress, fraction)
             reached = self._sample("fresh_sample")
             self._check_motion_sample(reached, kind.name)

@@ -93,6 +93,7 @@ class Sample:
     emergency_stopped: bool
     async_running: bool
     async_operation_id: int
+    async_progress: int  # a path's waypoint in progress (0 for a single move)
     receive_connected: bool
     control_connected: bool
     speed_scaling: float  # speed slider x controller speed scaling, 0..1
@@ -129,8 +130,8 @@ class _Session:
             raise _ConnectRefused(
                 exc, int(self._receive.getSafetyMode()), int(self._receive.getRobotMode())
             ) from exc
-        if not self._control.setWatchdog(1.0 / watchdog_s):
-            raise RuntimeError(f"the control script refused setWatchdog({1.0 / watchdog_s} Hz)")
+        self._watchdog_hz = 1.0 / watchdog_s
+        self._arm_watchdog()
         self.kick_period_s = watchdog_s / WATCHDOG_KICKS_PER_WINDOW
         self._last_kick_s = time.monotonic()
         self._io: Any = rtde_io.RTDEIOInterface(host) if with_io else None
@@ -144,6 +145,10 @@ class _Session:
                 "the controller did not start the RTDE data stream (receive connected: "
                 f"{self._receive.isConnected()}, control connected: {self._control.isConnected()})"
             )
+
+    def _arm_watchdog(self) -> None:
+        if not self._control.setWatchdog(self._watchdog_hz):
+            raise RuntimeError(f"the control script refused setWatchdog({self._watchdog_hz} Hz)")
 
     def _wait_for_data(self) -> None:
         """Until the first RTDE sample is in: after a refused start the receive interface comes
@@ -173,6 +178,7 @@ class _Session:
             emergency_stopped=bool(r.isEmergencyStopped()),
             async_running=bool(async_status.isAsyncOperationRunning()),
             async_operation_id=int(async_status.operationId()),
+            async_progress=int(async_status.progress()),
             receive_connected=bool(r.isConnected()),
             control_connected=bool(c.isConnected()),
             speed_scaling=float(r.getSpeedScalingCombined()),
@@ -227,6 +233,13 @@ class _Session:
     def move_l_async(self, pose: list[float], speed_mps: float, accel_mps2: float) -> bool:
         return bool(self._control.moveL(pose, speed_mps, accel_mps2, True))
 
+    def move_l_path_async(self, path: list[list[float]]) -> bool:
+        """ur_rtde's moveL(path): it stops the control script, uploads it again with the path
+        in it and starts the path; the new script has no watchdog until it is set again."""
+        started = bool(self._control.moveL(path, True))
+        self._arm_watchdog()
+        return started
+
     def stop_l(self, decel_mps2: float) -> None:
         self._control.stopL(decel_mps2, False)
 
@@ -279,6 +292,7 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         "is_pose_within_safety_limits": session.is_pose_within_safety_limits,
         "has_ik_solution": session.has_ik_solution,
         "move_l_async": session.move_l_async,
+        "move_l_path_async": session.move_l_path_async,
         "stop_l": session.stop_l,
         "is_joints_within_safety_limits": session.is_joints_within_safety_limits,
         "move_j_async": session.move_j_async,
