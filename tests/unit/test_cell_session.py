@@ -12,6 +12,7 @@ import io
 import json
 import math
 import uuid
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -40,7 +41,7 @@ from handeye_pick.geometry import (
     ur_pose_to_matrix,
 )
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import OutputBank, ProgressCallback, RobotStatus
+from handeye_pick.robot.port import OutputBank, ProgressCallback, RobotStatus, Waypoint
 from handeye_pick.safety import PreflightRefusal
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -72,6 +73,7 @@ class ScriptedArm:
         self.within_limits = True
         self.refuse_below_z_m: float | None = None  # safety limits refuse TCP targets below
         self.fail_on_move: int | None = None  # 1-based index of the move that fails
+        self.fail_on_waypoint: int | None = None  # 0-based waypoint a path fails heading for
         self.failure: BaseException = RobotFault("protective stop", safety_mode=3, runtime_state=2)
         self.calls: list[tuple[str, object]] = []
         self.audit_lines_at_first_move: int | None = None
@@ -126,6 +128,22 @@ class ScriptedArm:
             raise self.failure
         return T_base_tcp.copy()
 
+    def move_path(
+        self,
+        waypoints: Sequence[Waypoint],
+        timeout_s: float,
+        on_progress: ProgressCallback | None = None,
+    ) -> Transform:
+        """Heads for each waypoint in turn (progress k/n .. (k+1)/n, as the port says), failing
+        on the way to waypoint ``fail_on_waypoint`` (0-based) when that is set."""
+        self.calls.append(("path", (list(waypoints), timeout_s)))
+        for index in range(len(waypoints)):
+            if on_progress is not None:
+                on_progress((index + 0.5) / len(waypoints))
+            if self.fail_on_waypoint == index:
+                raise self.failure
+        return waypoints[-1].T_base_tcp.copy()
+
     def move_joints(
         self,
         q_rad: object,
@@ -148,6 +166,9 @@ class ScriptedArm:
 
     def moves(self) -> list[tuple[Transform, float, float, float]]:
         return [c[1] for c in self.calls if c[0] == "move"]  # type: ignore[misc]
+
+    def paths(self) -> list[list[Waypoint]]:
+        return [c[1][0] for c in self.calls if c[0] == "path"]  # type: ignore[index]
 
 
 def _records(path: Path) -> list[dict[str, object]]:
