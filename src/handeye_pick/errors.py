@@ -31,7 +31,8 @@ class Status(str, Enum):
     READY = "ready"
     NOT_READY = "not-ready"
     BYE = "bye"
-    STOPPED = "stopped"  # collect: the dataset ended early, the pairs so far kept
+    STOPPED = "stopped"  # run's stop request braked the arm; collect: the dataset ended early
+    BUSY = "busy"  # run: the status of a cell while a request runs
     # an operation that did not
     BAD_INPUT = "bad-input"
     BAD_REQUEST = "bad-request"
@@ -134,6 +135,11 @@ class SequenceAborted(RobotError):
     stopped, not where it started, so this is a fault (exit 4, the cell halts), not a refusal."""
 
 
+class StopRequested(RobotError):
+    """An operator's ``stop`` request (``run``) braked the arm mid-sequence with stopL; the cell
+    is halted until ``resume``, as after a fault the operator asked for."""
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM (a supervisor, systemd) arrived: handled exactly like Ctrl-C (stop the arm, write
     the outcome), then exit status 143 instead of 130."""
@@ -162,6 +168,7 @@ _ENDINGS: tuple[tuple[type[BaseException], Ending], ...] = (  # the first matchi
     (SafetyRefusal, Ending(Status.REFUSED, Status.REFUSED, ExitCode.REFUSED)),
     (PartDropped, Ending(Status.DROPPED, Status.DROPPED, ExitCode.ROBOT_FAULT)),
     (SequenceAborted, Ending(Status.ABORTED, Status.ABORTED, ExitCode.ROBOT_FAULT)),
+    (StopRequested, Ending(Status.STOPPED, Status.STOPPED, ExitCode.ROBOT_FAULT)),
     (RobotError, Ending(Status.FAULT, Status.FAULT, ExitCode.ROBOT_FAULT)),
     (InputError, Ending(Status.BAD_INPUT, Status.BAD_REQUEST, ExitCode.BAD_INPUT)),
 )

@@ -20,6 +20,7 @@ from handeye_pick.errors import (
     SafetyRefusal,
     SequenceAborted,
     Status,
+    StopRequested,
     Terminated,
     ending,
 )
@@ -39,6 +40,7 @@ REFUSED_CHECK = [CheckResult("workspace", "grasp", False, "outside")]
         (SafetyRefusal("x"), Status.REFUSED, Status.REFUSED, 3),
         (PartDropped("x"), Status.DROPPED, Status.DROPPED, 4),
         (SequenceAborted("x"), Status.ABORTED, Status.ABORTED, 4),
+        (StopRequested("x"), Status.STOPPED, Status.STOPPED, 4),
         (RobotFault("x"), Status.FAULT, Status.FAULT, 4),
         (RobotConnectionError("x"), Status.FAULT, Status.FAULT, 4),
         (GripperFault("x"), Status.FAULT, Status.FAULT, 4),

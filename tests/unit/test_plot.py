@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
-from handeye_pick.cell.plan import STEPS, chain_plan
+from handeye_pick.cell.plan import chain_plan
 from handeye_pick.config.load import load_config
+from handeye_pick.config.schema import PICK_MOVES
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix
@@ -35,7 +36,7 @@ def demo_scene(calibration: HandEyeCalibration, cloud_base_m: np.ndarray | None 
         T_base_tcp=plan.T_base_flange @ plan.T_flange_tcp,
         T_base_cam=plan.T_base_cam,
         T_base_obj=plan.T_base_obj,
-        tcp_path=tuple((name, plan.target(name)) for name in STEPS),
+        tcp_path=tuple((name, plan.target(name)) for name in PICK_MOVES),
         workspace_min_m=(-0.8, -0.8, 0.02),
         workspace_max_m=(0.8, 0.8, 0.7),
         cloud_base_m=cloud_base_m,
@@ -79,7 +80,7 @@ def test_frames_are_drawn_where_the_chain_puts_them(tmp_path: Path) -> None:
     above_mm = np.array([0.0, 0.0, 100.0])  # approach_mm straight up: the tool points down
     np.testing.assert_allclose(drawn["approach"], p_base_mm + above_mm, atol=1e-9)
     np.testing.assert_allclose(drawn["base"], [0.0, 0.0, 0.0])
-    assert set(drawn) == {"base", "flange", "tcp", "camera", "object", *STEPS}
+    assert set(drawn) == {"base", "flange", "tcp", "camera", "object", *PICK_MOVES}
 
 
 def test_inverted_calibration_draws_the_camera_where_it_cannot_be(tmp_path: Path) -> None:

@@ -30,6 +30,9 @@ a gap between them (UR skips blends that overlap and stops there instead)."""
 MIN_BLEND_M = 0.0005
 """A radius below half a millimetre rounds nothing: the target becomes a stop."""
 
+COLLINEAR_SINE = 1e-6
+"""Two segments whose angle has a smaller sine span no plane that can be trusted."""
+
 Vector = NDArray[np.float64]
 
 
@@ -103,15 +106,13 @@ def corners(steps: Sequence[Step], T_base_tcp_start: Transform) -> list[Corner]:
 
 
 def corner_extent_m(incoming: Vector, outgoing: Vector, radius_m: float) -> Vector:
-    """Half-size along base x, y, z of the disc of ``radius_m`` spanned by two segments; for
-    segments in one line, of the stretch of that line the TCP can be on."""
+    """Half-size along base x, y, z of the disc of ``radius_m`` spanned by two segments. Where
+    the two are (nearly) in one line their plane is not known: the whole ball, to be safe."""
+    scale = float(np.linalg.norm(incoming)) * float(np.linalg.norm(outgoing))
     normal = np.cross(incoming, outgoing)
     length = float(np.linalg.norm(normal))
-    scale = float(np.linalg.norm(incoming)) * float(np.linalg.norm(outgoing))
-    if scale == 0.0 or length <= 1e-9 * scale:
-        direction = incoming if float(np.linalg.norm(incoming)) > 0.0 else outgoing
-        unit = direction / max(float(np.linalg.norm(direction)), 1e-12)
-        return np.asarray(radius_m * np.abs(unit), dtype=np.float64)
+    if scale == 0.0 or length < COLLINEAR_SINE * scale:
+        return np.full(3, radius_m, dtype=np.float64)
     unit_normal = normal / length
     return np.asarray(
         [radius_m * math.sqrt(max(0.0, 1.0 - float(n) ** 2)) for n in unit_normal],

@@ -19,7 +19,13 @@ from handeye_pick.calibration.files import HandEyeCalibration
 from handeye_pick.cell.blend import corners, with_blends
 from handeye_pick.cell.grasp import backed_off, plan_targets
 from handeye_pick.cell.steps import Grip, JointMove, Move, Step
-from handeye_pick.config.schema import CellConfig, PlaceConfig
+from handeye_pick.config.schema import (
+    PICK_MOVES,
+    PLACE_MOVES,
+    CellConfig,
+    PlaceConfig,
+    via_move,
+)
 from handeye_pick.detection import Detection
 from handeye_pick.errors import PlanRefused
 from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
@@ -35,9 +41,8 @@ from handeye_pick.safety import (
     preflight,
 )
 
-RETREAT = "retreat"
-STEPS = ("approach", "grasp", RETREAT)
-PLACE_STEPS = ("place-approach", "place", "place-retreat")
+APPROACH, GRASP, RETREAT = PICK_MOVES
+PLACE_APPROACH, PLACE, PLACE_RETREAT = PLACE_MOVES
 
 
 @dataclass(frozen=True)
@@ -54,12 +59,12 @@ class PickPlan:
 
     def target(self, step: str) -> Transform:
         """The ``T_base_tcp`` target of a pick step (approach, grasp, retreat)."""
-        by_name = {"approach": self.approach, "grasp": self.grasp, "retreat": self.retreat}
+        by_name = {APPROACH: self.approach, GRASP: self.grasp, RETREAT: self.retreat}
         return by_name[step]
 
     def targets(self) -> dict[str, Transform]:
         """The three ``T_base_tcp`` targets by step name, in the order they are moved to."""
-        return {name: self.target(name) for name in STEPS}
+        return {name: self.target(name) for name in PICK_MOVES}
 
     def targets_ur(self) -> dict[str, list[float]]:
         """The three targets as UR pose vectors (m, rad), for reports and audit records."""
@@ -118,8 +123,8 @@ def chain_plan(
 def pick_steps(plan: PickPlan, *, grip: bool) -> list[Step]:
     """Approach, grasp (slow), the gripper closing when ``grip``, retreat."""
     steps: list[Step] = [
-        Move("approach", plan.approach),
-        Move("grasp", plan.grasp, slow=True),
+        Move(APPROACH, plan.approach),
+        Move(GRASP, plan.grasp, slow=True),
     ]
     if grip:
         steps.append(Grip(close=True))
@@ -131,20 +136,18 @@ def place_steps(T_base_tcp_place: Transform, place: PlaceConfig, *, grip: bool) 
     """Through the ``via`` poses, approach the place pose from above its tool z, put down
     (slow), release, retreat."""
     steps: list[Step] = [
-        Move(f"via {pose.name}", pose.T_base_tcp, fixed=True)
+        Move(via_move(pose.name), pose.T_base_tcp, fixed=True)
         for pose in place.via
         if pose.T_base_tcp is not None  # the config loader takes only TCP poses as via poses
     ]
     steps += [
-        Move(
-            "place-approach", backed_off(T_base_tcp_place, place.approach_mm / 1000.0), fixed=True
-        ),
-        Move("place", T_base_tcp_place, slow=True, fixed=True),
+        Move(PLACE_APPROACH, backed_off(T_base_tcp_place, place.approach_mm / 1000.0), fixed=True),
+        Move(PLACE, T_base_tcp_place, slow=True, fixed=True),
     ]
     if grip:
         steps.append(Grip(close=False))
     steps.append(
-        Move("place-retreat", backed_off(T_base_tcp_place, place.retreat_mm / 1000.0), fixed=True)
+        Move(PLACE_RETREAT, backed_off(T_base_tcp_place, place.retreat_mm / 1000.0), fixed=True)
     )
     return steps
 

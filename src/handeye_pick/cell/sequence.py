@@ -10,9 +10,10 @@ it is sent (``safety``), whatever the config said.
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -28,6 +29,7 @@ from handeye_pick.errors import (
     RobotError,
     SafetyRefusal,
     SequenceAborted,
+    StopRequested,
 )
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list
 from handeye_pick.gripper.port import GraspState, Gripper
@@ -96,6 +98,7 @@ def execute(
     before_move: Callable[[str], None] | None = None,
     gripper: Gripper | None = None,
     holding: GraspState | None = None,
+    watch: SequenceWatch | None = None,
 ) -> Executed:
     """Run ``steps`` in order.
 
@@ -111,12 +114,16 @@ def execute(
     every move watches it; a lost part raises ``PartDropped`` (the adapter stops the arm).
     ``holding`` is the grasp of a part already held when the sequence starts (a pick that did
     not place it), watched the same way.
+
+    ``watch`` (``SequenceWatch``) hears of every step as it starts, a path's waypoints
+    included, and may ask the sequence to stop: before each step, and at every look while the
+    arm moves, a set ``watch.stop`` raises ``StopRequested`` (the adapter sends stopL).
     """
-    run = _Run(config, arm, progress, outcome, gripper, holding)
+    run = _Run(config, arm, progress, outcome, gripper, holding, watch or SequenceWatch())
     index = 0
     while index < len(steps):
         step = steps[index]
-        outcome["step"] = step.name
+        run.starting(step.name)
         # Each move confirmed on its own (before_move) runs on its own: no blends.
         path = path_at(steps, index, run.last_move) if before_move is None else []
         try:
@@ -140,6 +147,15 @@ def execute(
     return Executed(run.reached, run.grasp)
 
 
+@dataclass(frozen=True)
+class SequenceWatch:
+    """Who watches a running sequence from outside: ``on_step`` hears each step's name as it
+    starts; ``stop``, once set (from any thread), brakes the arm at the next look."""
+
+    on_step: Callable[[str], None] | None = None
+    stop: threading.Event = field(default_factory=threading.Event)
+
+
 class _Run:
     """The state of one ``execute``: what was reached, what the gripper holds, where the TCP
     starts its next move from."""
@@ -152,7 +168,9 @@ class _Run:
         outcome: dict[str, object],
         gripper: Gripper | None,
         holding: GraspState | None,
+        watch: SequenceWatch,
     ) -> None:
+        self.watch = watch
         self.config = config
         self.outcome = outcome
         self.arm = arm
@@ -167,6 +185,23 @@ class _Run:
             outcome["gripper"] = {"kind": gripper.kind, "commands": self.commands}
         self.last_move: str | None = None  # a missed grasp ends the sequence after this move
         self.T_base_tcp_from: Transform | None = None  # the previous move's target
+
+    def starting(self, step: str) -> None:
+        """``step`` is the one in progress now (the outcome says so); a stop request ends the
+        sequence before it starts."""
+        if self.outcome.get("step") != step:
+            self.outcome["step"] = step
+            if self.watch.on_step is not None:
+                self.watch.on_step(step)
+        self._stop_if_asked(step, None)
+
+    def _stop_if_asked(self, step: str, fraction: float | None) -> None:
+        if not self.watch.stop.is_set():
+            return
+        where = "before it started" if fraction is None else f"at {fraction:.0%} of the move"
+        raise StopRequested(
+            f"{step}: stopped by request {where}; the cell is halted: resume when ready"
+        )
 
     def aborted(self, step: str, exc: HandEyePickError) -> SequenceAborted:
         """A refusal once the arm has moved: stop it where it stands (it is at rest after its
@@ -241,7 +276,7 @@ class _Run:
 
         def follow(watch: ProgressCallback) -> ProgressCallback:
             def on_progress(fraction: float) -> None:
-                self.outcome["step"] = names[min(int(fraction * len(names)), len(names) - 1)]
+                self.starting(names[min(int(fraction * len(names)), len(names) - 1)])
                 watch(fraction)
 
             return on_progress
@@ -263,11 +298,20 @@ class _Run:
         return replace(first, blend_m=min(first.blend_m, room) if room >= MIN_BLEND_M else 0.0)
 
     def _drive(self, name: str, send: Callable[[ProgressCallback], Transform]) -> Transform:
-        """Send one motion command; while a confirmed part is carried, watch it."""
+        """Send one motion command; at every look, brake on a stop request and, while a
+        confirmed part is carried, watch it."""
         watched = self.gripper if self.grasp is GraspState.CONFIRMED else None
+
+        def stoppable(report: ProgressCallback) -> ProgressCallback:
+            def on_progress(fraction: float) -> None:
+                self._stop_if_asked(name, fraction)
+                report(fraction)
+
+            return on_progress
+
         try:
             with self.progress.step(name) as report:
-                return send(_watching(report, watched, name))
+                return send(_watching(stoppable(report), watched, name))
         except PartDropped:
             self.grasp = None  # the part is gone: the tool alone hangs on the flange again
             self._tool_payload_after_loss()

@@ -31,7 +31,7 @@ import logging
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from types import TracebackType
 
@@ -45,6 +45,7 @@ from handeye_pick.calibration.files import (
 from handeye_pick.cell.captures import Capture, CaptureBook
 from handeye_pick.cell.lock import CellLock
 from handeye_pick.cell.plan import (
+    PLACE,
     CandidateRefusal,
     Chosen,
     PickPlan,
@@ -64,7 +65,7 @@ from handeye_pick.cell.records import (
     plan_record,
     steps_record,
 )
-from handeye_pick.cell.sequence import Executed, execute
+from handeye_pick.cell.sequence import Executed, SequenceWatch, execute
 from handeye_pick.cell.status import (
     CellStatus,
     flange_from_outside,
@@ -187,6 +188,7 @@ class Cell:
         connect: ArmFactory = connect_ur_rtde,
     ) -> None:
         self.config = config if isinstance(config, CellConfig) else load_config(Path(config))
+        self._watch = SequenceWatch()  # see watch_steps and request_stop
         self.calibration = calibration_from_config(self.config)
         self.progress = progress if progress is not None else Progress.quiet()
         self._connect_arm = connect
@@ -291,6 +293,19 @@ class Cell:
         """Why the cell is halted (motion refused until ``resume``), or None."""
         return self._halted
 
+    def watch_steps(self, on_step: Callable[[str], None]) -> None:
+        """``on_step`` hears the name of each step of a running sequence as it starts (a blended
+        path's waypoints included), on the thread that runs it."""
+        self._watch = replace(self._watch, on_step=on_step)
+
+    def request_stop(self, why: str = "stop requested") -> None:
+        """Halt the cell now and brake a sequence in flight at its next look (every few
+        milliseconds while the arm moves; before the next step otherwise): stopL, outcome
+        ``stopped``. Safe to call from any thread; ``resume`` ends the halt."""
+        if self._halted is None:
+            self._halted = why
+        self._watch.stop.set()
+
     def resume(self, *, request_id: str | None = None) -> CellStatus:
         """After the operator cleared a fault on the pendant: a fresh robot session, then the
         full readiness check. The cell stays halted (SafetyRefusal) while it is not ready."""
@@ -306,6 +321,7 @@ class Cell:
             )
         # What the gripper holds after the operator's recovery is unknown: watch no part.
         self._holding = None
+        self._watch.stop.clear()
         log.warning("cell %s resumed (was halted: %s)", self.config.robot.host, reason)
         return status
 
@@ -705,6 +721,7 @@ class Cell:
                     before_move,
                     self._gripper,
                     holding,
+                    self._watch,
                 )
             outcome.update(finish(done))
         return audit.pick_id
@@ -788,11 +805,11 @@ def _named_move(pose: NamedPose) -> Step:
 
 
 def _has_place(steps: Sequence[Step]) -> bool:
-    return any(isinstance(step, Move) and step.name == "place" for step in steps)
+    return any(isinstance(step, Move) and step.name == PLACE for step in steps)
 
 
 def _place_pose(steps: Sequence[Step]) -> Transform | None:
     for step in steps:
-        if isinstance(step, Move) and step.name == "place":
+        if isinstance(step, Move) and step.name == PLACE:
             return step.T_base_tcp
     return None

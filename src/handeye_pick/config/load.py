@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.config.hand_eye import read_hand_eye
 from handeye_pick.config.motion import read_motion, read_workspace
 from handeye_pick.config.payload import read_object
@@ -18,11 +19,13 @@ from handeye_pick.config.poses import read_capture, read_grasp, read_place, read
 from handeye_pick.config.reader import Fields, read_yaml_mapping
 from handeye_pick.config.robot import read_robot
 from handeye_pick.config.schema import (
+    PICK_MOVES,
     STRAIGHT_MM_DEFAULT,
     STRAIGHT_MM_FINGERS,
     AuditConfig,
     CaptureConfig,
     CellConfig,
+    PlaceConfig,
     RobotConfig,
 )
 from handeye_pick.errors import ConfigError
@@ -54,6 +57,17 @@ def load_config(path: Path) -> CellConfig:
     )
     poses = read_poses(top) if top.has("poses") else ()
     robot = read_robot(top)
+    hand_eye = read_hand_eye(top, path.parent)
+    place = read_place(top, poses) if top.has("place") else None
+    capture = (
+        read_capture(top, poses, _move_names(place)) if top.has("capture") else CaptureConfig()
+    )
+    if capture.view_clear_at is not None and hand_eye.mode is not HandEyeMode.EYE_TO_HAND:
+        top.fail(
+            "capture",
+            "view_clear_at is for a fixed camera (eye-to-hand): a camera on the flange rides "
+            "with the arm and is never in its own way",
+        )
     part = read_object(top) if top.has("object") else None
     if part is not None and robot.tool_payload is None:
         top.fail(
@@ -63,17 +77,22 @@ def load_config(path: Path) -> CellConfig:
         )
     return CellConfig(
         robot=robot,
-        hand_eye=read_hand_eye(top, path.parent),
+        hand_eye=hand_eye,
         grasp=read_grasp(top, _default_straight_mm(robot)),
         motion=read_motion(top),
         workspace=read_workspace(top),
         audit=_audit(top, path.parent),
         path=path,
         poses=poses,
-        place=read_place(top, poses) if top.has("place") else None,
-        capture=read_capture(top, poses) if top.has("capture") else CaptureConfig(),
+        place=place,
+        capture=capture,
         object=part,
     )
+
+
+def _move_names(place: PlaceConfig | None) -> tuple[str, ...]:
+    """The moves of a pick and, with a place, of its place."""
+    return PICK_MOVES if place is None else (*PICK_MOVES, *place.move_names())
 
 
 def _default_straight_mm(robot: RobotConfig) -> float:

@@ -148,14 +148,21 @@ def _via(fields: Fields, poses: tuple[NamedPose, ...]) -> tuple[NamedPose, ...]:
     return tuple(via)
 
 
-def read_capture(top: Fields, poses: tuple[NamedPose, ...]) -> CaptureConfig:
-    """``capture``: the named pose a capture moves to first, and how long it waits for rest."""
-    capture = top.section("capture", ("pose", *_CAPTURE_NUMBERS))
+def read_capture(
+    top: Fields, poses: tuple[NamedPose, ...], steps: tuple[str, ...]
+) -> CaptureConfig:
+    """``capture``: the named pose a capture moves to first, how long it waits for rest, and
+    ``view_clear_at``, one of ``steps`` (the moves of a pick and its place)."""
+    capture = top.section("capture", ("pose", "view_clear_at", *_CAPTURE_NUMBERS))
     name = capture.string("pose") if capture.has("pose") else None
     if name is not None and name not in {pose.name for pose in poses}:
         known = ", ".join(pose.name for pose in poses) or "none"
         capture.fail("pose", f"no pose named {name!r} under poses (defined: {known})")
+    view_clear_at = (
+        capture.string("view_clear_at", choices=steps) if capture.has("view_clear_at") else None
+    )
     return CaptureConfig(
         pose=name,
         steady_timeout_s=capture.number("steady_timeout_s", _CAPTURE_NUMBERS),
+        view_clear_at=view_clear_at,
     )

@@ -26,6 +26,9 @@ MAX_TCP_OFFSET_M = 1.0  # a TCP offset in mm (150) typed into this m key would b
 MAX_OBJECT_OFFSET_M = 0.5  # same check for grasp.object_T_tcp
 MIN_STANDOFF_MM = 5.0  # approach/retreat below 5 mm: metres typed into a mm key (0.1 -> 0.1 mm)
 MAX_STANDOFF_MM = 500.0  # longer approach or retreat paths are not a pick any more
+# The moves of a pick and of its place, by the names the audit, the events and the config use.
+PICK_MOVES = ("approach", "grasp", "retreat")
+PLACE_MOVES = ("place-approach", "place", "place-retreat")
 MAX_BLEND_MM = 300.0  # a corner rounded wider than 30 cm is no longer the path that was taught
 # The end of a descent (the start of an ascent) that stays straight along the tool axis when
 # corners are blended: a suction cup's lip and compression with room to spare, and a two-finger
@@ -137,6 +140,11 @@ class NamedPose:
     T_base_tcp: Transform | None  # TCP pose in base (m), or None
 
 
+def via_move(pose_name: str) -> str:
+    """The name of the move through the via pose ``pose_name`` (``place.via``)."""
+    return f"via {pose_name}"
+
+
 @dataclass(frozen=True)
 class PlaceConfig:
     """Where a picked part is put down: TCP poses in the base frame used in turn (a pallet)."""
@@ -146,6 +154,10 @@ class PlaceConfig:
     retreat_mm: float  # retreat point after the release, the same way back (mm)
     via: tuple[NamedPose, ...] = ()  # TCP poses a transfer passes through on its way to a place
 
+    def move_names(self) -> tuple[str, ...]:
+        """The moves of a place, in order: through the via poses, then ``PLACE_MOVES``."""
+        return (*(via_move(pose.name) for pose in self.via), *PLACE_MOVES)
+
 
 @dataclass(frozen=True)
 class CaptureConfig:
@@ -153,6 +165,9 @@ class CaptureConfig:
 
     pose: str | None = None  # named pose a capture moves to first (eye-to-hand: out of view)
     steady_timeout_s: float = 2.0  # longest wait for the arm to come to rest before latching (s)
+    # eye-to-hand: the step (retreat, a "via NAME" pose, ...) past which the arm is out of the
+    # camera's view; run then tells the vision client (a view-clear event)
+    view_clear_at: str | None = None
 
 
 @dataclass(frozen=True)
