@@ -13,9 +13,18 @@ Requests (camera frame in mm for detections, robot poses as UR vectors in m and 
      "place": true, "dry_run": false}                        place, dry_run optional
     {"id": "3", "op": "place"}    {"id": "4", "op": "move", "pose": "home"}
     {"id": "5", "op": "status"}   {"id": "6", "op": "resume"}   {"id": "7", "op": "quit"}
+    {"id": "8", "op": "stop"}
 
 Every reply carries ``id`` and ``ok``; failed ones ``status`` and ``error``. A request may carry
 ``token`` (required when the runner was given one, see ``cli/run.py``).
+
+While a request runs, ``Runner.answer_now`` answers ``stop`` (it brakes the arm and halts the
+cell), ``status`` (``busy``, with the request and the step in progress) and malformed lines at
+once, from the thread that reads requests; the others wait their turn. A motion request with
+``"events": true`` also gets event lines, carrying its ``id`` and no ``ok``:
+``{"id": "4", "event": "step", "step": "retreat"}`` as each step starts, and
+``{"id": "4", "event": "view-clear"}`` once the arm has passed ``capture.view_clear_at`` (a
+fixed camera may capture again).
 """
 
 from __future__ import annotations
@@ -24,7 +33,7 @@ import hmac
 import json
 import logging
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -53,15 +62,17 @@ MISSED_MESSAGE = (
 MAX_CANDIDATES = 100
 """Most candidate detections one pick request may carry."""
 
-_KEYS: dict[str, tuple[str, ...]] = {
-    "capture": ("pose",),
-    "pick": ("capture_id", "candidates", "place", "dry_run"),
-    "place": (),
-    "move": ("pose",),
+_KEYS: dict[str, tuple[str, ...]] = {  # "events": true asks for the request's event lines
+    "capture": ("pose", "events"),
+    "pick": ("capture_id", "candidates", "place", "dry_run", "events"),
+    "place": ("events",),
+    "move": ("pose", "events"),
     "status": (),
     "resume": (),
     "quit": (),
+    "stop": (),
 }
+_MOTION_OPS = frozenset({"capture", "pick", "place", "move", "resume"})
 _COMMON_KEYS = ("id", "op", "token")
 
 
@@ -80,6 +91,7 @@ class Request:
     candidates: tuple[Detection, ...] = ()
     place: bool = True
     dry_run: bool = False
+    events: bool = False  # write event lines while it runs
 
 
 class Runner:
@@ -89,23 +101,85 @@ class Runner:
         self.cell = cell
         self._token = token
         self.quit = False
+        self.events: Callable[[dict[str, object]], None] | None = None  # where event lines go
+        self._busy: dict[str, object] | None = None  # the request running: id, op, step
+        self._events = False  # the running request asked for its event lines
+        self._view_clear_sent = False
+        cell.watch_steps(self._on_step)
 
     def handle(self, line: bytes | str) -> dict[str, object]:
         """The reply to one request line (without its newline)."""
-        request_id: str | int | None = None
         try:
-            data = _parse_json(line)
-            request_id = _request_id(data)
-            self._check_token(data)
-            request = _validate(data, request_id)
+            request = self._parse(line)
         except BadRequest as exc:
-            return {"id": request_id, "ok": False, "status": Status.BAD_REQUEST, "error": str(exc)}
+            return bad_request_reply(line, exc)
+        if request.op in _MOTION_OPS:
+            self._busy = {"id": request.id, "op": request.op}
+            self._events, self._view_clear_sent = request.events, False
         try:
             return {"id": request.id, **self._dispatch(request)}
         except (KeyboardInterrupt, SystemExit):
             raise
         except (InputError, SafetyRefusal, RobotError) as exc:
             return {"id": request.id, "ok": False, **failure_fields(exc)}
+        finally:
+            if self._busy is not None and self._busy.get("step") == self._view_clear_at():
+                self._view_clear()  # the sequence ended on the view-clear point itself
+            self._busy = None
+
+    def answer_now(self, line: bytes | str, waiting: bool) -> dict[str, object] | None:
+        """The reply to a request that must not wait behind the one running (or behind those
+        ``waiting`` in line), or None when it takes its turn: ``stop`` (brakes the arm at once
+        and halts the cell), ``status`` while the cell is busy, and a malformed request.
+        Reads no controller: safe beside a running request."""
+        try:
+            request = self._parse(line)
+        except BadRequest as exc:
+            return bad_request_reply(line, exc)
+        busy = dict(self._busy) if self._busy is not None else None
+        if request.op == "stop":
+            running = f" while request {busy['id']} ran {busy['op']}" if busy else ""
+            self.cell.request_stop(f"stopped by request {request.id}{running}")
+            return {"id": request.id, "ok": True, "status": Status.STOPPED, "request": busy}
+        if request.op == "status" and (busy is not None or waiting):
+            return {
+                "id": request.id,
+                "ok": True,
+                "status": Status.BUSY,
+                "request": busy,
+                "halted": self.cell.halted is not None,
+                "halted_reason": self.cell.halted,
+            }
+        return None
+
+    def _parse(self, line: bytes | str) -> Request:
+        data = _parse_json(line)
+        request_id = _request_id(data)
+        self._check_token(data)
+        return _validate(data, request_id)
+
+    def _view_clear_at(self) -> str | None:
+        return self.cell.config.capture.view_clear_at
+
+    def _on_step(self, step: str) -> None:
+        """A step of the running request started: say so; once the arm has passed the
+        view-clear point (the step after it started), say that too."""
+        busy = self._busy
+        if busy is None:
+            return
+        passed, busy["step"] = busy.get("step"), step
+        self._emit({"id": busy["id"], "event": "step", "step": step})
+        if passed is not None and passed == self._view_clear_at():
+            self._view_clear()
+
+    def _view_clear(self) -> None:
+        if self._busy is not None and not self._view_clear_sent:
+            self._view_clear_sent = True
+            self._emit({"id": self._busy["id"], "event": "view-clear"})
+
+    def _emit(self, event: dict[str, object]) -> None:
+        if self.events is not None and self._events:
+            self.events(event)
 
     @staticmethod
     def interrupted_reply(request_line: bytes | str, exc: KeyboardInterrupt) -> dict[str, object]:
@@ -162,7 +236,24 @@ class Runner:
         if request.op == "quit":
             self.quit = True
             return {"ok": True, "status": Status.BYE}
+        if request.op == "stop":  # nothing was running: the cell halts until resume
+            self.cell.request_stop(f"stopped by request {request.id}")
+            return {"ok": True, "status": Status.STOPPED, "request": None}
         raise BadRequest(f"{request.op}: incomplete request")
+
+
+def bad_request_reply(line: bytes | str, exc: BadRequest) -> dict[str, object]:
+    """The reply to a line that is no valid request: its id when one can be read."""
+    try:
+        request_id = _request_id(_parse_json(line))
+    except BadRequest:
+        request_id = None
+    return {"id": request_id, "ok": False, "status": Status.BAD_REQUEST, "error": str(exc)}
+
+
+def queue_full_error(waiting: int) -> BadRequest:
+    """Why a request was answered without being run: too many wait already."""
+    return BadRequest(f"{waiting} requests are waiting already: this one was not queued, not run")
 
 
 def failure_fields(exc: BaseException) -> dict[str, object]:
@@ -288,6 +379,7 @@ def _validate(data: Mapping[str, Any], request_id: str | int | None) -> Request:
         candidates=candidates,
         place=True if place is None else place,
         dry_run=bool(dry_run),
+        events=bool(_optional(data, "events", bool)),
     )
 
 

@@ -13,8 +13,12 @@ import argparse
 import contextlib
 import ipaddress
 import json
+import os
+import queue
+import select
 import socket
 import sys
+import threading
 from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
@@ -27,6 +31,10 @@ if TYPE_CHECKING:
     from handeye_pick.runner import Runner
 
 MAX_TOKEN_FILE_BYTES = 4096
+MAX_WAITING = 8
+"""Most requests that wait behind the running one; a further one is answered at once, unrun."""
+WAIT_POLL_S = 0.2  # how long a wait for a line or a request lasts before it looks again
+READ_CHUNK_BYTES = 65536
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -75,26 +83,85 @@ def run(args: argparse.Namespace) -> int:
     with Cell(args.config, progress=progress) as cell:
         runner = Runner(cell, token)
         if address is None:
-            _serve(runner, _lines(sys.stdin.buffer), sys.stdout)
+            _serve(runner, sys.stdin.fileno(), sys.stdout)
         else:
             _serve_tcp(runner, address, progress)
     return 0
 
 
-def _serve(runner: Runner, lines: Iterator[bytes], out: IO[str]) -> None:
-    """Answer every line until quit or the end of ``lines``; on Ctrl-C/SIGTERM answer the
-    request in flight, then let the signal end the command."""
-    for line in lines:
-        if not line.strip():
-            continue
+def _serve(runner: Runner, fd: int, out: IO[str]) -> None:
+    """Answer every line read from the file descriptor ``fd`` until quit or its end.
+
+    Requests run one at a time on this, the main thread (ur_rtde's child and the signal holds
+    need it), in the order they came; meanwhile a thread of its own reads the next lines and
+    answers ``stop``, ``status`` and malformed lines at once (``Runner.answer_now``); at most
+    ``MAX_WAITING`` wait their turn. On Ctrl-C/SIGTERM answer the request in flight, then let
+    the signal end the command."""
+    loop = _Loop(runner, out)
+    closing = threading.Event()
+    reader = threading.Thread(target=loop.read, args=(_lines(fd, closing),), name="requests")
+    runner.events = loop.write
+    reader.start()
+    try:
+        loop.run()
+    finally:
+        runner.events = None
+        closing.set()  # the reader sees it within WAIT_POLL_S
+        reader.join()
+
+
+class _Loop:
+    """The requests of one client: a bounded line of waiting requests between the thread that
+    reads them and the main thread that runs them; replies and events written one at a time."""
+
+    def __init__(self, runner: Runner, out: IO[str]) -> None:
+        self.runner = runner
+        self.out = out
+        self.waiting: queue.Queue[bytes | None] = queue.Queue(MAX_WAITING)  # None: no more
+        self._write_lock = threading.Lock()
+
+    def write(self, reply: dict[str, object]) -> None:
+        with self._write_lock:
+            _write(self.out, reply)
+
+    def read(self, lines: Iterator[bytes]) -> None:
+        """The reading thread: answer what must not wait, queue the rest, then say the end."""
+        from handeye_pick.runner import bad_request_reply, queue_full_error
+
         try:
-            reply = runner.handle(line)
-        except KeyboardInterrupt as exc:
-            _write(out, runner.interrupted_reply(line, exc))
-            raise
-        _write(out, reply)
-        if runner.quit:
-            return
+            for line in lines:
+                if not line.strip():
+                    continue
+                reply = self.runner.answer_now(line, waiting=not self.waiting.empty())
+                if reply is not None:
+                    self.write(reply)
+                    continue
+                try:
+                    self.waiting.put_nowait(line)
+                except queue.Full:
+                    self.write(bad_request_reply(line, queue_full_error(MAX_WAITING)))
+        except (OSError, ValueError):  # the client left, or its stream was closed under us
+            pass
+        finally:
+            self.waiting.put(None)
+
+    def run(self) -> None:
+        """The main thread: run waiting requests in order until quit or the end of input."""
+        while True:
+            try:
+                line = self.waiting.get(timeout=WAIT_POLL_S)
+            except queue.Empty:
+                continue  # wake now and then so Ctrl-C is never held up by the wait
+            if line is None:
+                return
+            try:
+                reply = self.runner.handle(line)
+            except KeyboardInterrupt as exc:
+                self.write(self.runner.interrupted_reply(line, exc))
+                raise
+            self.write(reply)
+            if self.runner.quit:
+                return
 
 
 def _serve_tcp(runner: Runner, address: tuple[str, int], progress: Progress) -> None:
@@ -111,31 +178,45 @@ def _serve_tcp(runner: Runner, address: tuple[str, int], progress: Progress) -> 
             client, peer = server.accept()
             progress.say(f"client {peer[0]}:{peer[1]} connected")
             # A client that leaves (even mid-reply) ends only its connection, not the session.
-            with (
-                client,
-                client.makefile("rb") as reader,
-                client.makefile("w") as writer,
-                contextlib.suppress(ConnectionError),
-            ):
-                _serve(runner, _lines(reader), writer)
+            with client, client.makefile("w") as writer, contextlib.suppress(ConnectionError):
+                _serve(runner, client.fileno(), writer)
             progress.say(f"client {peer[0]}:{peer[1]} left")
 
 
-def _lines(stream: IO[bytes]) -> Iterator[bytes]:
-    """Lines of at most ``MAX_LINE_BYTES``; a longer one is yielded cut (and so refused) and
-    the rest of it skipped, so memory stays bounded whatever a client sends."""
+def _lines(fd: int, closing: threading.Event) -> Iterator[bytes]:
+    """Lines read from the file descriptor ``fd`` (a pipe, a terminal or a socket) until its
+    end or until ``closing`` is set; each at most ``MAX_LINE_BYTES``: a longer one is yielded
+    cut (and so refused) and the rest of it skipped, so memory stays bounded whatever a client
+    sends. Raw reads behind ``select``: the thread that reads can always be told to stop."""
     from handeye_pick.runner import MAX_LINE_BYTES
 
-    while True:
-        line = stream.readline(MAX_LINE_BYTES + 1)
-        if not line:
+    pending = b""
+    skipping = False  # inside the rest of an over-long line
+    while not closing.is_set():
+        ready, _, _ = select.select([fd], [], [], WAIT_POLL_S)
+        if not ready:
+            continue
+        chunk = os.read(fd, READ_CHUNK_BYTES)
+        if not chunk:
+            if pending and not skipping:
+                yield pending
             return
-        if len(line) > MAX_LINE_BYTES and not line.endswith(b"\n"):
-            while True:  # drop the rest of the over-long line
-                rest = stream.readline(MAX_LINE_BYTES)
-                if not rest or rest.endswith(b"\n"):
-                    break
-        yield line
+        pending += chunk
+        while True:
+            end = pending.find(b"\n")
+            if end < 0:
+                if len(pending) > MAX_LINE_BYTES:
+                    if not skipping:
+                        yield pending[: MAX_LINE_BYTES + 1]
+                    skipping, pending = True, b""
+                break
+            line, pending = pending[: end + 1], pending[end + 1 :]
+            if skipping:
+                skipping = False  # the end of the over-long line
+            elif len(line) > MAX_LINE_BYTES + 1:
+                yield line[: MAX_LINE_BYTES + 1]
+            else:
+                yield line
 
 
 def _write(out: IO[str], reply: dict[str, object]) -> None:
