@@ -44,8 +44,8 @@ import numpy as np
 
 from handeye_pick.errors import InputError
 
-SCHEMA_VERSION = 1
-"""The audit format's version. Adding an optional field keeps it; renaming or removing a field,
+SCHEMA_VERSION = 2
+"""The audit format's version (2: the ``resume`` record). Adding an optional field keeps it; renaming or removing a field,
 changing a field's meaning or unit, or a new record kind raises it (docs/files-and-frames.md)."""
 
 RESERVED_KEYS = ("schema", "timestamp", "pick_id")
@@ -218,7 +218,7 @@ def _entry(raw: bytes, offset: int, path: Path) -> dict[str, object] | TornLine 
     except (UnicodeDecodeError, ValueError):
         record = None
     if isinstance(record, dict):
-        _check_version(record, offset, path)
+        check_version(record.get("schema", 0), offset, path)
         return record
     text = raw.decode("utf-8", errors="replace")
     return TornLine(offset, text if len(text) <= 80 else text[:77] + "...")
@@ -294,8 +294,10 @@ class _Lock:
             self._fd = None
 
 
-def _check_version(record: Mapping[str, object], offset: int, path: Path) -> None:
-    version = record.get("schema", 0)  # no version: written before versions existed
+def check_version(version: object, offset: int, path: Path) -> None:
+    """Refuse (``AuditError``, one line) a record's ``schema`` this reader does not know:
+    newer than ``SCHEMA_VERSION``, or not an integer. A record without one (written before
+    versions existed) is version 0."""
     if not (isinstance(version, int) and not isinstance(version, bool)):
         raise AuditError(f"audit {path}: the record at byte {offset} has schema {version!r}")
     if version > SCHEMA_VERSION:
