@@ -65,6 +65,11 @@ KEPT_UNKNOWN_KINDS = 20
 HISTOGRAM_BINS = 20
 """Cycle-time histogram bins up to the 99th percentile; longer cycles count as ``over``."""
 KNOWN_EVENTS = frozenset({"capture", "plan", "outcome", "resume"})
+# The statuses the hot path compares with, as plain strings (an enum's .value costs a call).
+_ABANDONED = "abandoned"
+_DONE, _DRY_RUN, _HALTED = Status.DONE.value, Status.DRY_RUN.value, Status.HALTED.value
+_INTERRUPTED, _REFUSED = Status.INTERRUPTED.value, Status.REFUSED.value
+_NO_CANDIDATE, _READY = Status.NO_CANDIDATE.value, Status.READY.value
 
 
 @dataclass
@@ -167,6 +172,7 @@ class Tally:
         self.statuses: Counter[str] = Counter()
         self.counts: Counter[str] = Counter()  # dry runs, places, faults, stops, ...
         self.hours: dict[float, Counter[str]] = {}
+        self._current_hour: tuple[float, Counter[str]] = (math.inf, Counter())
         self.cycle_times = array("d")
         self.previous_done: float | None = None
         self.open_halt: Fault | None = None
@@ -209,28 +215,28 @@ class Tally:
         status = str(record.get("status"))
         if status in FAULTS:
             self._fault(record, status, t, inside)
-        if status == Status.INTERRUPTED.value or status == "abandoned":
+        if status in (_INTERRUPTED, _ABANDONED):
             self.previous_done = None  # the cell was not producing across it
         if not inside:
             return
         operation = record.get("operation")
-        if status == "abandoned":
+        if status == _ABANDONED:
             self.counts["abandoned"] += 1
-        elif status == Status.INTERRUPTED.value:
+        elif status == _INTERRUPTED:
             self.counts["stops"] += 1
-        if status == Status.HALTED.value:
+        elif status == _HALTED:
             self.counts["halted_refusals"] += 1
-        if operation == "place" and status == Status.DONE.value:
+        if operation == "place" and status == _DONE:
             self.counts["places_done"] += 1
-        if operation is None and record.get("step") != "connect" and status != "abandoned":
+        if operation is None and status != _ABANDONED and record.get("step") != "connect":
             self._cycle(record, status, t)
 
     def _cycle(self, record: dict[str, object], status: str, t: float) -> None:
-        if status == Status.DRY_RUN.value:
+        if status == _DRY_RUN:
             self.counts["dry_runs"] += 1
             return
-        if status == Status.REFUSED.value and _error_type(record) in PLAN_REFUSALS:
-            status = Status.NO_CANDIDATE.value
+        if status == _REFUSED and _error_type(record) in PLAN_REFUSALS:
+            status = _NO_CANDIDATE
         self.statuses[status] += 1
         hour = self._hour(t)
         hour["cycles"] += 1
@@ -265,7 +271,7 @@ class Tally:
             self.last_faults.append(fault)
 
     def _resume(self, record: dict[str, object], t: float, inside: bool) -> None:
-        ready = record.get("status") == Status.READY.value
+        ready = record.get("status") == _READY
         if inside:
             self.counts["resumes" if ready else "resumes_not_ready"] += 1
         if ready and self.open_halt is not None:
@@ -291,10 +297,11 @@ class Tally:
         return (self.since is None or t >= self.since) and (self.until is None or t < self.until)
 
     def _hour(self, t: float) -> Counter[str]:
-        start = _hour_start(t, self.tz)
-        bucket = self.hours.get(start)
-        if bucket is None:
-            bucket = self.hours[start] = Counter()
+        start, bucket = self._current_hour
+        if not start <= t < start + 3600.0:  # most records fall in the hour of the one before
+            start = _hour_start(t, self.tz)
+            bucket = self.hours.setdefault(start, Counter())
+            self._current_hour = (start, bucket)
         return bucket
 
     def finish(self) -> ShiftReport:
