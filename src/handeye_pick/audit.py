@@ -35,7 +35,7 @@ import json
 import math
 import os
 import uuid
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from datetime import datetime, timezone
 from pathlib import Path
 from typing import BinaryIO
@@ -44,9 +44,10 @@ import numpy as np
 
 from handeye_pick.errors import InputError
 
-SCHEMA_VERSION = 1
-"""The audit format's version. Adding an optional field keeps it; renaming or removing a field,
-changing a field's meaning or unit, or a new record kind raises it (docs/files-and-frames.md)."""
+SCHEMA_VERSION = 2
+"""The audit format's version (2 added the ``resume`` record). Adding an optional field keeps it;
+renaming or removing a field, changing a field's meaning or unit, or a new record kind raises it
+(docs/files-and-frames.md)."""
 
 RESERVED_KEYS = ("schema", "timestamp", "pick_id")
 
@@ -191,6 +192,12 @@ class TornLine:
     offset: int  # byte offset of the line's start in the file
     text: str  # its first 80 characters, undecodable bytes replaced
 
+    @classmethod
+    def of(cls, raw: bytes, offset: int) -> TornLine:
+        """The torn line ``raw`` (without its newline) that starts at byte ``offset``."""
+        text = raw.decode("utf-8", errors="replace")
+        return cls(offset, text if len(text) <= 80 else text[:77] + "...")
+
     def describe(self, path: Path) -> str:
         return (
             f"audit {path}: an incomplete line at byte {self.offset} (a write cut short, e.g. "
@@ -198,19 +205,30 @@ class TornLine:
         )
 
 
-def read_audit(path: Path) -> Iterator[dict[str, object] | TornLine]:
+LineParser = Callable[[bytes, int, Path], "dict[str, object] | TornLine | None"]
+"""Turns one line (without its newline), its byte offset and the file's path into an entry."""
+
+
+def read_audit(
+    path: Path, parse: LineParser | None = None
+) -> Iterator[dict[str, object] | TornLine]:
     """Every line of the audit file in order: a record (a dict), or a ``TornLine`` for a line
-    that is not one complete JSON object. Blank lines are skipped. Reads line by line."""
+    that is not one complete JSON object. Blank lines are skipped. Reads line by line, each
+    with ``parse`` (default ``parse_line``; a reader that needs less of some records may bring
+    its own, falling back to ``parse_line``)."""
+    parse_one = parse_line if parse is None else parse
     offset = 0
     with Path(path).open("rb") as file:
         for raw in file:
-            entry = _entry(raw.rstrip(b"\n"), offset, path)
+            entry = parse_one(raw.rstrip(b"\n"), offset, path)
             offset += len(raw)
             if entry is not None:
                 yield entry
 
 
-def _entry(raw: bytes, offset: int, path: Path) -> dict[str, object] | TornLine | None:
+def parse_line(raw: bytes, offset: int, path: Path) -> dict[str, object] | TornLine | None:
+    """One line as a record, a ``TornLine`` when it is not one JSON object, None when blank;
+    ``AuditError`` for a record in a format version this reader does not know."""
     if not raw.strip():
         return None
     try:
@@ -218,10 +236,9 @@ def _entry(raw: bytes, offset: int, path: Path) -> dict[str, object] | TornLine 
     except (UnicodeDecodeError, ValueError):
         record = None
     if isinstance(record, dict):
-        _check_version(record, offset, path)
+        check_version(record.get("schema", 0), offset, path)
         return record
-    text = raw.decode("utf-8", errors="replace")
-    return TornLine(offset, text if len(text) <= 80 else text[:77] + "...")
+    return TornLine.of(raw, offset)
 
 
 def open_audit(path: Path) -> tuple[AuditLog, list[str]]:
@@ -294,8 +311,10 @@ class _Lock:
             self._fd = None
 
 
-def _check_version(record: Mapping[str, object], offset: int, path: Path) -> None:
-    version = record.get("schema", 0)  # no version: written before versions existed
+def check_version(version: object, offset: int, path: Path) -> None:
+    """Refuse (``AuditError``, one line) a record's ``schema`` this reader does not know:
+    newer than ``SCHEMA_VERSION``, or not an integer. A record without one (written before
+    versions existed) is version 0."""
     if not (isinstance(version, int) and not isinstance(version, bool)):
         raise AuditError(f"audit {path}: the record at byte {offset} has schema {version!r}")
     if version > SCHEMA_VERSION:
@@ -314,7 +333,7 @@ def _unfinished_plans(path: Path) -> tuple[list[dict[str, object]], list[TornLin
     torn: list[TornLine] = []
     with path.open("rb") as file:
         for offset, raw in _lines_from_end(file, SCAN_LIMIT_BYTES):
-            entry = _entry(raw, offset, path)
+            entry = parse_line(raw, offset, path)
             if isinstance(entry, TornLine):
                 torn.append(entry)
             elif entry is not None and entry.get("event") == "outcome":

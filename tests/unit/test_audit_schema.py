@@ -29,7 +29,7 @@ def test_every_record_carries_the_format_version(tmp_path: Path) -> None:
     )
     (record,) = read_audit(tmp_path / "free-a.jsonl")
     assert isinstance(record, dict)
-    assert record["schema"] == SCHEMA_VERSION == 1
+    assert record["schema"] == SCHEMA_VERSION == 2
     assert record_problems(record) == []
 
 
@@ -48,7 +48,8 @@ def test_the_schema_refuses_what_is_not_a_record_kind() -> None:
     assert record_problems({**good, "flange_pose": [0.1, 0, 0.3]}) != []  # not a UR vector
     assert record_problems({**good, "event": "pick"}) != []
     assert record_problems({**good, "unknown": 1}) != []
-    assert record_problems({**good, "schema": 2}) != []
+    assert record_problems({**good, "schema": 3}) != []
+    assert record_problems({**good, "schema": 1}) == []  # a version 1 file reads alike
 
 
 def test_the_suite_check_finds_an_invalid_record_and_skips_hand_written_ones(
@@ -68,7 +69,7 @@ def test_the_suite_check_finds_an_invalid_record_and_skips_hand_written_ones(
     assert invalid_records(folder) == []
 
 
-@pytest.mark.parametrize("version", [2, "1", True])
+@pytest.mark.parametrize("version", [3, "1", True])
 def test_readers_refuse_a_version_they_do_not_know(tmp_path: Path, version: object) -> None:
     path = tmp_path / "free-a.jsonl"
     _write(path, {"schema": version, "pick_id": "p", "event": "plan"})

@@ -516,8 +516,13 @@ def test_a_fault_halts_the_cell_until_resume(tmp_path: Path) -> None:
     assert len(arm.moves()) == moves_before  # nothing moved while halted
     assert _records(config.audit.file)[-1]["status"] == "halted"  # the refused pick, audited
     arm.fail_on_move = None
-    cell.resume()
+    cell.resume(request_id="r7")
     assert cell.halted is None
+    resumed = _records(config.audit.file)[-1]
+    assert resumed["event"] == "resume"
+    assert resumed["status"] == "ready"
+    assert resumed["request_id"] == "r7"
+    assert "protective stop" in str(resumed["halted"])  # why it stood, for the shift report
     assert cell.pick(_detection()).status == "picked"
 
 
@@ -573,6 +578,9 @@ def test_resume_stays_halted_while_the_cell_is_not_ready(tmp_path: Path) -> None
     with pytest.raises(SafetyRefusal, match="still not ready"):
         cell.resume()
     assert cell.halted is not None
+    attempt = _records(config.audit.file)[-1]
+    assert (attempt["event"], attempt["status"]) == ("resume", "not-ready")
+    assert attempt["problems"]  # the reasons it stays halted
 
 
 def test_move_timeout_follows_the_trapezoid_profile() -> None:

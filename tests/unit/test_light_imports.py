@@ -119,3 +119,17 @@ def test_each_command_has_its_own_module_named_after_it() -> None:
     for command, (module, _) in COMMANDS.items():
         assert module == command.replace("-", "_"), command
     assert len(MODULES) == len(COMMANDS)
+
+
+def test_a_report_without_a_plot_loads_nothing_heavy(tmp_path: Path) -> None:
+    # matplotlib only for --plot: a report for the terminal or a script starts light.
+    record = {"schema": 2, "timestamp": "2026-12-02T06:00:00+00:00", "pick_id": "p"}
+    outcome = {**record, "event": "outcome", "status": "placed", "request_id": None}
+    (tmp_path / "free-audit.jsonl").write_text(json.dumps(outcome) + "\n")
+    loaded = _modules_loaded(["report", "free-audit.jsonl", "--json"], tmp_path)
+    assert "handeye_pick.report.shift" in loaded
+    assert _heavy(loaded) == []
+    other_commands = {f"handeye_pick.cli.{module}" for module in MODULES} - {
+        "handeye_pick.cli.report"
+    }
+    assert other_commands.isdisjoint(loaded)

@@ -308,11 +308,22 @@ class Cell:
 
     def resume(self, *, request_id: str | None = None) -> CellStatus:
         """After the operator cleared a fault on the pendant: a fresh robot session, then the
-        full readiness check. The cell stays halted (SafetyRefusal) while it is not ready."""
+        full readiness check. The cell stays halted (SafetyRefusal) while it is not ready.
+        Each attempt that got as far as the readiness check is audited as a ``resume`` record
+        (``status`` ready or not-ready, ``halted``: why the cell was halted), so the audit file
+        alone says how long the cell stood."""
         self._close_arm()
         self.connect(request_id=request_id)
         reason, self._halted = self._halted, None
         status = self.status()
+        record: dict[str, object] = {
+            "event": "resume",
+            "request_id": request_id,
+            "status": Status.READY if status.ready else Status.NOT_READY,
+            "halted": reason,
+            "problems": status.problems,
+        }
+        self._next_audit().append(record)
         if not status.ready:
             self._halted = reason
             raise SafetyRefusal(

@@ -65,6 +65,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "calibrate",
         "solve a hand-eye calibration from robot_pose_N.yaml / object_pose_N.yaml pairs",
     ),
+    "report": (
+        "report",
+        "a shift from the audit file: cycles, statuses, picks per hour, cycle times, faults",
+    ),
 }
 MODULES = tuple(dict.fromkeys(module for module, _ in COMMANDS.values()))
 """Every command module, in the order of ``COMMANDS``."""
