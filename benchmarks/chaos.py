@@ -466,7 +466,10 @@ def soak(soak_state: Soak, cycles: int, fault_rate: float) -> float:
         except RunEnded:
             ending = "no reply"
         if timer is not None:
-            timer.join()
+            timer.join()  # the kill was sent, perhaps after the cycle ended: wait for its end
+            killed = s.controller.process if KINDS[name].kill == "controller" else s.run.pipe.process
+            assert killed is not None
+            killed.wait(timeout=10)
         if event is None and ending == "placed":
             s.sample()
             continue
