@@ -16,15 +16,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import select
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
@@ -32,64 +28,13 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 
 from benchmarks.cycle import CELL_YAML, CLI, OBJECT_BASE_M, TCP_OFFSET  # noqa: E402
+from benchmarks.run_pipe import Pipe, dashboard, figures, print_figures  # noqa: E402
 from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
 
 HOST = "127.0.0.251"
 MOTION_KINDS = {"moveL", "moveJ", "moveL_FK", "moveJ_IK"}
-REPLY_TIMEOUT_S = 60.0
-
-
-def _process_figures(pid: int) -> dict[str, int]:
-    """Resident memory (KiB), open descriptors and threads of one process, from /proc."""
-    status = Path(f"/proc/{pid}/status").read_text()
-    fields = dict(line.split(":", 1) for line in status.splitlines() if ":" in line)
-    return {
-        "rss_kib": int(fields["VmRSS"].split()[0]),
-        "fds": len(os.listdir(f"/proc/{pid}/fd")),
-        "threads": int(fields["Threads"]),
-    }
-
-
-def _children(pid: int) -> list[int]:
-    path = Path(f"/proc/{pid}/task/{pid}/children")
-    return [int(p) for p in path.read_text().split()] if path.exists() else []
-
-
-def _figures(pid: int) -> dict[str, dict[str, int]]:
-    result = {"run": _process_figures(pid)}
-    for child in _children(pid):
-        if "worker.py" in Path(f"/proc/{child}/cmdline").read_text():
-            result["ur_rtde child"] = _process_figures(child)
-    return result
-
-
-class Pipe:
-    def __init__(self, process: subprocess.Popen[bytes]) -> None:
-        self.process = process
-        self.count = 0
-
-    def ask(self, request: dict[str, Any]) -> dict[str, Any]:
-        assert self.process.stdin is not None
-        assert self.process.stdout is not None
-        self.count += 1
-        request = {"id": str(self.count), **request}
-        self.process.stdin.write(json.dumps(request).encode() + b"\n")
-        self.process.stdin.flush()
-        ready, _, _ = select.select([self.process.stdout], [], [], REPLY_TIMEOUT_S)
-        if not ready:
-            raise RuntimeError(f"no reply to {request}")
-        reply: dict[str, Any] = json.loads(self.process.stdout.readline())
-        return reply
-
-
-def _unlock(host: str) -> None:
-    with socket.create_connection((host, 29999), timeout=5.0) as dashboard:
-        reader = dashboard.makefile("r")
-        reader.readline()
-        dashboard.sendall(b"unlock protective stop\n")
-        reader.readline()
 
 
 def main() -> None:
@@ -133,15 +78,15 @@ def main() -> None:
                 blocked = pipe.ask(request)
                 picks[blocked["id"]] = blocked["status"]
                 halted_ok += blocked["status"] == "halted"
-                _unlock(HOST)
+                dashboard(HOST, "unlock protective stop")
                 if pipe.ask({"op": "resume"})["status"] != "ready":
                     raise RuntimeError("resume failed")
             elif reply["status"] != "placed":
                 raise RuntimeError(f"cycle {cycle}: {reply}")
             if cycle == 1:
-                start_figures = _figures(run.pid)
+                start_figures = figures(run.pid)
         elapsed_s = time.monotonic() - started
-        end_figures = _figures(run.pid)
+        end_figures = figures(run.pid)
         pipe.ask({"op": "quit"})
         run.wait(timeout=30)
         records = [json.loads(line) for line in (folder / "picks.jsonl").read_text().splitlines()]
@@ -158,11 +103,7 @@ def main() -> None:
     print(f"  cycles per hour: {args.cycles / elapsed_s * 3600:.0f}")
     print(f"  faults injected: {args.cycles // args.fault_every}, answered fault: {faults}, "
           f"next pick answered halted: {halted_ok}, resumed: {faults}")
-    for name in start_figures:
-        first, last = start_figures[name], end_figures.get(name, {})
-        print(f"  {name:<14} RSS {first['rss_kib'] / 1024:6.1f} -> "
-              f"{last.get('rss_kib', 0) / 1024:6.1f} MiB   fds {first['fds']} -> "
-              f"{last.get('fds')}   threads {first['threads']} -> {last.get('threads')}")
+    print_figures(start_figures, end_figures)
     print(f"  every pick that moved has plan and outcome on disk: {accounted} ({len(moved)} picks)")
     print(f"  every pick request has an outcome record: {refused_audited} ({len(picks)} requests)")
 

@@ -68,8 +68,11 @@ def _log_lines(stream: IO[bytes] | None, host: str) -> None:
     """ur_rtde prints to stdout/stderr; keep that off our stdout (--json) and in the debug log."""
     if stream is None:
         return
-    for raw in stream:
-        log.debug("ur_rtde %s: %s", host, raw.decode(errors="replace").rstrip())
+    # Closed at the end of the child's output: an ended session may stay referenced (a halted
+    # cell's traceback, say) until the garbage collector runs, and each one kept a pipe open.
+    with stream:
+        for raw in stream:
+            log.debug("ur_rtde %s: %s", host, raw.decode(errors="replace").rstrip())
 
 
 class Child:

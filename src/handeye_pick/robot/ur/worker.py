@@ -278,12 +278,12 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         failure = Failure(
             "connect", type(exc.cause).__name__, str(exc), exc.safety_mode, exc.robot_mode
         )
-        conn.send(("failure", asdict(failure)))
+        _answer(conn, ("failure", asdict(failure)))
         os._exit(0)
     except Exception as exc:  # every failure goes back to the parent, typed there
-        conn.send(("failure", asdict(Failure("connect", type(exc).__name__, str(exc)))))
+        _answer(conn, ("failure", asdict(Failure("connect", type(exc).__name__, str(exc)))))
         os._exit(0)
-    conn.send(("hello", session.controller_version))
+    _answer(conn, ("hello", session.controller_version))
     operations: dict[str, Callable[..., object]] = {
         "sample": session.sample,
         "fresh_sample": session.fresh_sample,
@@ -308,20 +308,33 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
             continue
         try:
             operation, args = conn.recv()
-        except EOFError:  # parent gone: leave; the starved watchdog stops the program
+        except (EOFError, OSError):  # parent gone: leave; the starved watchdog stops the program
             os._exit(0)
         if operation == "close":
-            conn.send(("ok", None))
-            # Exiting closes every socket, which is all ur_rtde's disconnect() does on the wire
-            # (no STOP_SCRIPT, no RTDE pause); its destructors would add 0.5 s sleeps each.
+            _answer(conn, ("ok", None))
             os._exit(0)
         try:
             if operation != "sample":
                 session.require_link()
             result = operations[operation](*args)
-            conn.send(("ok", asdict(result) if isinstance(result, Sample) else result))
+            reply: tuple[str, object] = (
+                "ok",
+                asdict(result) if isinstance(result, Sample) else result,
+            )
         except Exception as exc:
-            conn.send(("failure", asdict(Failure(operation, type(exc).__name__, str(exc)))))
+            reply = ("failure", asdict(Failure(operation, type(exc).__name__, str(exc))))
+        _answer(conn, reply)
+
+
+def _answer(conn: Connection, reply: tuple[str, object]) -> None:
+    """Send ``reply``; a parent gone mid-request (killed) ends this process at once, as at end of
+    file. Exiting closes every socket, which is all ur_rtde's disconnect() does on the wire (no
+    STOP_SCRIPT, no RTDE pause); an exception would exit through its destructors instead, 0.5 s
+    of sleep each, holding the controller's RTDE input registers against a restarted session."""
+    try:
+        conn.send(reply)
+    except OSError:
+        os._exit(0)
 
 
 def main() -> None:
