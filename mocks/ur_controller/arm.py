@@ -20,13 +20,16 @@ stops and a new move replacing a running one halt the arm at once.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial.transform import Rotation
 
 from mocks.ur_controller import kinematics as kin
+from mocks.ur_controller.blend import BlendedPath
+from mocks.ur_controller.path_script import Waypoint
 
 Vector = NDArray[np.float64]
 
@@ -52,11 +55,13 @@ class Motion:
 
     Path quantities are in the motion's units: m for a linear move, rad for a pure rotation or
     a joint move (largest joint travel). A stop sets the `stop_*` fields: from `stop_at_s` on,
-    the path speed falls from `stop_speed` at `stop_decel` until the arm is still.
+    the path speed falls from `stop_speed` at `stop_decel` until the arm is still. A blended
+    path (`path`, command 45) is one motion: its own profile replaces the trapezoid, and
+    `reached_s` collects the controller time each waypoint's move was done.
     """
 
     index: int
-    kind: str  # the command that started it: moveL, moveJ, moveL_FK, moveJ_IK
+    kind: str  # the command that started it: moveL, moveJ, moveL_FK, moveJ_IK, movePath
     started_s: float  # controller time
     linear: bool
     distance: float
@@ -72,6 +77,8 @@ class Motion:
     stop_from: float = 0.0  # path fraction where the stop began
     stop_speed: float = 0.0
     stop_decel: float = 0.0
+    path: BlendedPath | None = None
+    reached_s: list[float] = field(default_factory=list)
 
     @property
     def fraction(self) -> float:
@@ -82,6 +89,9 @@ class Motion:
         """(path fraction, path speed) of the unstopped trapezoid at motion time t."""
         if t >= self.duration_s:
             return 1.0, 0.0
+        if self.path is not None:
+            covered, speed = self.path.profile.at(t)
+            return covered / self.distance, speed
         peak = min(self.speed, math.sqrt(self.distance * self.accel))
         speed = max(0.0, min(peak, self.accel * t, self.accel * (self.duration_s - t)))
         return kin.trapezoid_fraction(t, self.distance, self.speed, self.accel), speed
@@ -262,17 +272,54 @@ class Arm:
         return self._start(kind, False, distance, speed, accel, q_target,
                            self.tcp_from_q(q_target))
 
+    def move_path(self, move: str, waypoints: Sequence[Waypoint]) -> Motion:
+        """Start a blended path (movel: TCP poses, movej: joints) as one motion; raises
+        UnreachableError for a waypoint without IK or outside the joint limits, or a speed or
+        acceleration that is not > 0 (a real controller's runtime error)."""
+        if any(w.speed <= 0.0 or w.accel <= 0.0 for w in waypoints):
+            raise UnreachableError("every path waypoint needs speed and acceleration > 0")
+        q = self.q
+        for w in waypoints:  # joints at each waypoint, each nearest the previous one's
+            target = np.array(w.target)
+            solution = self.ik_tcp(target, q) if move == "movel" else target
+            if solution is None or not kin.within_limits(self.model, solution):
+                raise UnreachableError(f"{move} path waypoint {np.round(target, 6).tolist()} "
+                                       f"is unreachable")
+            q = solution
+        linear = move == "movel"
+        path = BlendedPath(move, self.T_base_tcp if linear else self.q, waypoints,
+                           lambda joints: self.tcp_from_q(joints)[:3, 3])
+        first = waypoints[0]
+        return self._start("movePath", linear, path.length, first.speed, first.accel, q,
+                           self.tcp_from_q(q), path)
+
+    def planned_times(self, motion: Motion) -> dict[str, float | list[float] | None]:
+        """When a path is planned to be done with each waypoint and to end (controller time, s)
+        if nothing stops it, at the current speed factor and slider; None when instant or with
+        the slider at 0."""
+        rate = self.speed_factor * self.speed_slider
+        if motion.path is None or self.instant or rate <= 0.0:
+            return {"planned_reached_t": None, "planned_end_t": None}
+        profile = motion.path.profile
+        return {
+            "planned_reached_t": [motion.started_s + profile.time_at(d) / rate
+                                  for d in motion.path.done_distance],
+            "planned_end_t": motion.started_s + profile.duration_s / rate,
+        }
+
     def _start(self, kind: str, linear: bool, distance: float, speed: float, accel: float,
-               q_target: Vector, T_target: Vector) -> Motion:
+               q_target: Vector, T_target: Vector, path: BlendedPath | None = None) -> Motion:
         if speed <= 0.0 or accel <= 0.0:
             raise UnreachableError(f"speed {speed} and acceleration {accel} must be > 0 to move")
         self.halt("replaced by a new move")
         self.motion_count += 1
+        duration_s = (kin.trapezoid(distance, speed, accel) if path is None
+                      else path.profile.duration_s)
         self.motion = Motion(
             index=self.motion_count, kind=kind, started_s=self.now_s, linear=linear,
-            distance=distance, speed=speed, accel=accel,
-            duration_s=kin.trapezoid(distance, speed, accel), q_start=self.q.copy(),
-            q_target=q_target, T_base_tcp_start=self.T_base_tcp.copy(), T_base_tcp_target=T_target,
+            distance=distance, speed=speed, accel=accel, duration_s=duration_s,
+            q_start=self.q.copy(), q_target=q_target, T_base_tcp_start=self.T_base_tcp.copy(),
+            T_base_tcp_target=T_target, path=path,
         )
         return self.motion
 
@@ -346,18 +393,29 @@ class Arm:
         if dt_s > 0.0:
             self.qd = (self.q - q_before) / dt_s
             self.tcp_speed = _twist(T_tcp_before, self.T_base_tcp, dt_s)
+        if motion.path is not None:
+            done = motion.path.done_distance
+            while (len(motion.reached_s) < len(done)
+                   and done[len(motion.reached_s)] <= s * motion.distance + 1e-12):
+                t_done = motion.path.profile.time_at(done[len(motion.reached_s)])
+                motion.reached_s.append(self._cycle_at_or_after(motion, t_done))
         if motion.finished:
             self._end(motion, "stopped" if motion.braking else "reached")
 
     def _end(self, motion: Motion, reason: str) -> None:
         """The motion came to rest this cycle: recorded at the first cycle at or after the
         exact moment (a late cycle that overshot does not lengthen it)."""
+        self._rest(MotionEnd(motion, self._cycle_at_or_after(motion, motion.end_time()), reason))
+
+    def _cycle_at_or_after(self, motion: Motion, motion_t: float) -> float:
+        """Controller time of the first cycle at or after motion time `motion_t`, which this
+        cycle's advance passed (this cycle's time when instant)."""
         rate = self.speed_factor * self.speed_slider
-        end_s = self.now_s
-        if not self.instant and rate > 0.0:
-            exact_s = self.now_s - (motion.elapsed_s - motion.end_time()) / rate
-            end_s = max(motion.started_s, math.ceil(exact_s / self.cycle_s - 1e-6) * self.cycle_s)
-        self._rest(MotionEnd(motion, min(end_s, self.now_s), reason))
+        if self.instant or rate <= 0.0:
+            return self.now_s
+        exact_s = self.now_s - (motion.elapsed_s - motion_t) / rate
+        at_s = max(motion.started_s, math.ceil(exact_s / self.cycle_s - 1e-6) * self.cycle_s)
+        return min(at_s, self.now_s)
 
     def _track(self, dt_s: float) -> None:
         """Measured joints, poses, elbow and speeds for this cycle."""
@@ -378,9 +436,16 @@ class Arm:
             self.elbow_velocity = (self.elbow_position - elbow_before) / dt_s
 
     def _q_along(self, motion: Motion, s: float) -> Vector:
+        if motion.path is not None:
+            point = motion.path.point(s)
+            return self._ik_along(point, s) if motion.linear else point
         if not motion.linear:
             return motion.q_start + s * (motion.q_target - motion.q_start)
-        T_base_tcp = kin.interpolate_pose(motion.T_base_tcp_start, motion.T_base_tcp_target, s)
+        return self._ik_along(
+            kin.interpolate_pose(motion.T_base_tcp_start, motion.T_base_tcp_target, s), s)
+
+    def _ik_along(self, T_base_tcp: Vector, s: float) -> Vector:
+        """Joints at a point a fraction s along a linear path, nearest the current joints."""
         T_base_flange = kin.flange_from_tcp(T_base_tcp, self.tcp_offset)
         q = kin.inverse(self.model, T_base_flange, self.q)
         if q is None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import ipaddress
 import logging
+import math
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -35,6 +36,7 @@ from mocks.ur_controller.gripper import Robotiq2F, RobotiqServer, answer
 from mocks.ur_controller.net import Listener
 from mocks.ur_controller.options import ControllerOptions
 from mocks.ur_controller.outputs import Io, Modes, OutputTable
+from mocks.ur_controller.path_script import PathSpec, PathSyntaxError, injected_path
 from mocks.ur_controller.profiles import PROFILES, Profile
 from mocks.ur_controller.program import ControlScript, Registers
 from mocks.ur_controller.record import CommandRecord
@@ -90,6 +92,9 @@ class Controller:
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | None = None
+        # A received program waits this long (controller time) before it runs: (due, offset, path).
+        self._program_start_s = options.program_start_s
+        self._pending_program: tuple[float, int, PathSpec | None] | None = None
         self._paused = False
         self._robot_mode = ROBOT_MODE_RUNNING
         self._safety_mode = SAFETY_NORMAL
@@ -237,7 +242,10 @@ class Controller:
     # --- program control (script port, dashboard) -------------------------------------------
 
     def run_program(self, program: str) -> None:
-        """Run a program received on 30003; a new program replaces the running one."""
+        """Run a program received on 30003; a new program replaces the running one. One whose
+        injected path does not compile is not started (logged, recorded as compileError); with
+        `program_start_s` the program runs that long after it arrived, as a controller takes
+        time to compile and start it."""
         with self.lock:
             if "def rtde_control():" not in program:
                 log.warning("script port: ignoring a program that is not ur_rtde's "
@@ -247,14 +255,29 @@ class Controller:
             if refusal:
                 log.warning("script port: not starting rtde_control: %s", refusal)
                 return
-            self._start_script(register_offsets(program), "received on the script port")
+            try:
+                path = injected_path(program)
+            except PathSyntaxError as exc:
+                log.error("script port: rtde_control does not compile, not started: %s", exc)
+                self._record.add({"t": self._time_s, "kind": "compileError", "error": str(exc)})
+                self.stop_program("replaced by a program that does not compile")
+                return
+            offset = register_offsets(program)
+            if self._program_start_s <= 0.0:
+                self._start_script(offset, "received on the script port", path)
+                return
+            if self._script is not None:
+                self._script.stop("replaced by a new program")
+            self._pending_program = (self._time_s + self._program_start_s, offset, path)
 
-    def _start_script(self, register_offset: int, how: str) -> None:
+    def _start_script(self, register_offset: int, how: str, path: PathSpec | None = None) -> None:
         if self._script is not None:
             self._script.stop("replaced by a new program")
+        self._pending_program = None
         self._paused = False
         self._script = ControlScript(self.registers, self.arm, self._record, register_offset,
-                                     self._protective_stop, self._take_refused_move, self._time_s)
+                                     self._protective_stop, self._take_refused_move, self._time_s,
+                                     path)
         self._script.ack_delay_s = self._slow_s
         log.info("rtde_control program started (%s)", how)
 
@@ -276,6 +299,7 @@ class Controller:
 
     def stop_program(self, reason: str) -> None:
         with self.lock:
+            self._pending_program = None
             if self._script is not None:
                 self._script.stop(reason)
             self._paused = False
@@ -451,6 +475,10 @@ class Controller:
         self._time_s = time_s
         self.arm.now_s = time_s
         self.registers.take_in_writes(time_s)  # a controller applies RTDE inputs at a cycle
+        pending = self._pending_program
+        if pending is not None and time_s >= pending[0] - 1e-9:
+            self._start_script(pending[1], f"received on the script port, started after "
+                                           f"{self._program_start_s} s", pending[2])
         script = self._script
         if (script is not None and self._runtime_state() == RUNTIME_PLAYING
                 and self._safety_mode == SAFETY_NORMAL):
@@ -473,6 +501,7 @@ class Controller:
                 "motion": motion.index, "kind": motion.kind, "start_t": motion.started_s,
                 "end_t": end.end_s, "moving_s": end.end_s - motion.started_s, "end": end.reason,
                 **(end.detail or {}),
+                **({} if motion.path is None else {"reached_t": list(motion.reached_s)}),
             })
         self.arm.ended.clear()
 
@@ -524,6 +553,9 @@ def _profile_and_model(options: ControllerOptions) -> tuple[Profile, str]:
                          f"for the {profile.name} profile, got {model!r}")
     if not options.speed_factor > 0:
         raise ValueError(f"Controller: speed_factor must be > 0, got {options.speed_factor}")
+    if not options.program_start_s >= 0.0 or math.isinf(options.program_start_s):
+        raise ValueError(f"Controller: program_start_s must be finite and >= 0, got "
+                         f"{options.program_start_s}")
     if options.tracking and options.instant:
         raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
                          "instant move ends at full speed, far ahead of a lagging arm")

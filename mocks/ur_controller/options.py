@@ -43,6 +43,7 @@ class ControllerOptions:
     motion_record_path: str | Path | None = None  # motion record, appended as JSON lines
     part_width_mm: float | None = None  # a part this wide waits at the gripper
     feedback_input: Sequence[int] | None = None  # (output bit, input bit), each 0..17
+    program_start_s: float = 0.0  # a program from the script port runs this long after it came
 
 
 _DEFAULTS = ControllerOptions()
@@ -81,6 +82,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--feedback-input", nargs=2, type=int, metavar=("DO", "DI"),
                         help="digital input bit DI reads true while output bit DO is on and "
                              "the part is present (bits of actual_digital_*_bits, 0-17)")
+    parser.add_argument("--program-start-s", type=float, default=_DEFAULTS.program_start_s,
+                        metavar="S", help="a program received on the script port starts S "
+                                          "seconds of controller time later (default 0)")
     parser.add_argument("--no-remote-control", action="store_true",
                         help="start in local control (dashboard says remote control is off)")
     parser.add_argument("--allow-non-loopback", action="store_true",
@@ -97,6 +101,7 @@ def from_args(args: argparse.Namespace) -> ControllerOptions:
         allow_non_loopback=args.allow_non_loopback, profile=args.profile,
         tracking=args.tracking, seed=args.seed, motion_record_path=args.record_motions,
         part_width_mm=args.part_width_mm, feedback_input=args.feedback_input,
+        program_start_s=args.program_start_s,
     )
 
 
@@ -131,6 +136,8 @@ def to_argv(options: ControllerOptions) -> list[str]:
         argv += ["--part-width-mm", repr(float(o.part_width_mm))]
     if o.feedback_input is not None:
         argv += ["--feedback-input", *(str(int(b)) for b in o.feedback_input)]
+    if o.program_start_s:
+        argv += ["--program-start-s", repr(float(o.program_start_s))]
     return argv
 
 

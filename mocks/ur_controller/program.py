@@ -15,6 +15,12 @@ A command this emulator does not implement stops the program, as a URScript runt
 and is logged loudly: the client sees `runtime_state` leave PLAYING and returns False instead of
 waiting 300 s for an answer that never comes.
 
+Command 45 (MOVE_PATH) runs the path ur_rtde injected into the uploaded script (path_script.py)
+as one motion, in the move thread when async; like the script, it writes the progress word with
+the index of each waypoint as the arm starts heading for it (signal_async_progress(i)), and only
+the async thread writes "finished" at the end: after a synchronous path the word still reads
+running with the last index, as on a real controller.
+
 Fault refuse-move: the next motion command is not run and never answered; while its id stays in
 the register (`refusing`) the controller reports runtime_state PAUSING (3) instead of PLAYING.
 That is the only way ur_rtde 1.6.5's sendCommand returns False at once without a protective stop,
@@ -33,6 +39,7 @@ import numpy as np
 
 from mocks.ur_controller import kinematics as kin
 from mocks.ur_controller.arm import Arm, Motion, UnreachableError, Vector
+from mocks.ur_controller.path_script import PathSpec
 from mocks.ur_controller.record import CommandRecord
 
 log = logging.getLogger("mocks.ur_controller")
@@ -43,6 +50,7 @@ STOP_SCRIPT = 255
 # Processed every cycle while present (the script's realtime branch plus 1.6.5's additions).
 REALTIME_IDS = frozenset({6, 9, 10, 11, 24, 25, 26, 27, 38, 58, 66, 67, 68, 69, 70, 71})
 MOTION_KINDS = {1: "moveJ", 2: "moveJ_IK", 3: "moveL", 4: "moveL_FK"}
+MOVE_PATH = 45
 PAYLOAD_KINDS = {17: "setPayload", 65: "setTargetPayload"}
 
 
@@ -73,8 +81,9 @@ class ControlScript:
 
     def __init__(self, registers: Registers, arm: Arm, record: CommandRecord, reg_offset: int,
                  protective_stop: Callable[[str], None], take_refused_move: Callable[[], bool],
-                 now_s: float):
+                 now_s: float, path: PathSpec | None = None):
         self._reg = registers
+        self._path = path  # injected at `# inject move path`, run by command 45
         self._arm = arm
         self._commands = record
         self._off = reg_offset
@@ -87,6 +96,8 @@ class ControlScript:
         self._blocked_until_s: float | None = None  # a synchronous command is still running
         self._blocking_motion: Motion | None = None
         self._async_motion: Motion | None = None
+        self._path_motion: Motion | None = None
+        self._path_progress = 0  # the last waypoint index signalled
         self._async_write_count = 0
         self._async_op_id = 0
         self._watchdog_hz: float | None = None
@@ -128,6 +139,7 @@ class ControlScript:
             return
         if self._watchdog_starved(now_s):
             return
+        self._signal_path_progress()
         if self._async_motion is not None and self._arm.motion is not self._async_motion:
             self._async_motion = None  # the move thread ran to its end or was stopped
             self._write_async_word(-1)
@@ -168,6 +180,7 @@ class ControlScript:
         if self.running:
             log.info("rtde_control program stopped: %s", reason)
         self.running = False
+        self._path_motion = None
         if self._async_motion is not None:
             self._async_motion = None
             self._write_async_word(-1)
@@ -208,6 +221,8 @@ class ControlScript:
         arm = self._arm
         if cmd in MOTION_KINDS:
             self._move(cmd)
+        elif cmd == MOVE_PATH:
+            self._move_path()
         elif cmd in (15, 33, 34):
             self._stop_move({15: "speedStop", 33: "stopL", 34: "stopJ"}[cmd])
         elif cmd in PAYLOAD_KINDS:
@@ -312,8 +327,61 @@ class ControlScript:
         else:
             self._blocking_motion = motion
 
+    def _move_path(self) -> None:
+        """Command 45: exec_move_path(), in the move thread when I1 says async."""
+        is_async = self._in_int(1) == 1
+        path = self._path
+        waypoints = () if path is None else path.waypoints
+        entry: dict[str, Any] = {
+            "kind": "movePath", "move": None if path is None else path.move,
+            "waypoints": [list(w.target) for w in waypoints],
+            "speeds": [w.speed for w in waypoints], "accels": [w.accel for w in waypoints],
+            "radii": [w.blend for w in waypoints], "async": is_async,
+        }
+        if self._take_refused_move():
+            self.refusing = True
+            log.warning("fault refuse-move: refusing movePath")
+            self._record({**entry, "refused": True})
+            return
+        self._stop_async_move()
+        if path is None:  # nothing injected: exec_move_path() returns at once
+            self._record(entry)
+            if is_async:
+                self._write_async_word(0)
+                self._write_async_word(-1)
+            return
+        motion = self._arm.move_path(path.move, path.waypoints)
+        assert motion.path is not None
+        if motion.path.skipped:
+            log.warning("movePath: blends at waypoints %s skipped (they would overlap a "
+                        "neighbour's or not fit): the arm stops there", list(motion.path.skipped))
+        self._record({**entry, "skipped_blends": list(motion.path.skipped),
+                      **self._arm.planned_times(motion)})
+        if is_async:
+            self._async_motion = motion
+            self._write_async_word(0)  # the move thread: signal_async_operation_started()
+        else:
+            self._blocking_motion = motion
+        self._path_motion = motion
+        self._path_progress = 0
+        self._write_async_word(0)  # the first line of the path: signal_async_progress(0)
+
+    def _signal_path_progress(self) -> None:
+        """signal_async_progress(i) for each waypoint i the arm has started heading for: the
+        previous waypoint's move was done (its blend began, or the arm stopped there)."""
+        motion = self._path_motion
+        if motion is None or motion.path is None:
+            return
+        last = len(motion.path.done_distance) - 1
+        while self._path_progress < min(len(motion.reached_s), last):
+            self._path_progress += 1
+            self._write_async_word(self._path_progress)
+        if self._arm.motion is not motion:
+            self._path_motion = None
+
     def _stop_async_move(self) -> None:
         """A new move kills the running async move: the arm halts, the word says finished."""
+        self._path_motion = None
         if self._async_motion is not None:
             self._async_motion = None
             self._arm.halt("replaced by a new move")
@@ -327,6 +395,7 @@ class ControlScript:
         if kind != "speedStop":
             entry["async"] = is_async
         self._record(entry)
+        self._path_motion = None  # a path's thread is killed too: it signals no more waypoints
         if self._async_motion is not None:  # the move thread is killed; the arm brakes below
             self._async_motion = None
             self._write_async_word(-1)
