@@ -467,7 +467,8 @@ def soak(soak_state: Soak, cycles: int, fault_rate: float) -> float:
             ending = "no reply"
         if timer is not None:
             timer.join()  # the kill was sent, perhaps after the cycle ended: wait for its end
-            killed = s.controller.process if KINDS[name].kill == "controller" else s.run.pipe.process
+            by_controller = KINDS[name].kill == "controller"
+            killed = s.controller.process if by_controller else s.run.pipe.process
             assert killed is not None
             killed.wait(timeout=10)
         if event is None and ending == "placed":
