@@ -123,7 +123,12 @@ class Runner:
         except (InputError, SafetyRefusal, RobotError) as exc:
             return {"id": request.id, "ok": False, **failure_fields(exc)}
         finally:
-            if self._busy is not None and self._busy.get("step") == self._view_clear_at():
+            view_clear_at = self._view_clear_at()
+            if (
+                self._busy is not None
+                and view_clear_at is not None
+                and (self._busy.get("step") == view_clear_at)
+            ):
                 self._view_clear()  # the sequence ended on the view-clear point itself
             self._busy = None
 
