@@ -83,6 +83,7 @@ class ControlScript:
                  protective_stop: Callable[[str], None], take_refused_move: Callable[[], bool],
                  now_s: float, path: PathSpec | None = None):
         self._reg = registers
+        self._started_s = now_s
         self._path = path  # injected at `# inject move path`, run by command 45
         self._arm = arm
         self._commands = record
@@ -147,6 +148,10 @@ class ControlScript:
             self._finish_command(now_s, self._blocked_until_s)
             return
         cmd = self._in_int(0)
+        if cmd == STOP_SCRIPT and self._reg.in_int_written_s[self._off] <= self._started_s:
+            # The 255 that stopped the previous program: ur_rtde clears it before it uploads
+            # this one, and on a controller the clear always lands while the upload compiles.
+            return
         if cmd in REALTIME_IDS:
             self._process(cmd)
             if self.running:

@@ -434,11 +434,11 @@ def ensure_remote_control(remote_control: bool, host: str, command: str) -> None
 
 
 def ensure_not_halted(host: str, halted: str | None) -> None:
-    """Refuse every motion of a cell a fault halted (``halted`` says why) until it resumes."""
+    """Refuse every motion of a cell a fault or a stop request halted (``halted`` says why)
+    until it resumes."""
     if halted is not None:
         raise CellHalted(
-            f"cell {host} is halted after a fault ({halted}): clear the cause on the pendant, "
-            "then resume; nothing moved"
+            f"cell {host} is halted ({halted}): clear the cause, then resume; nothing moved"
         )
 
 

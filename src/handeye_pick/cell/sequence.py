@@ -189,11 +189,14 @@ class _Run:
     def starting(self, step: str) -> None:
         """``step`` is the one in progress now (the outcome says so); a stop request ends the
         sequence before it starts."""
+        self._announce(step)
+        self._stop_if_asked(step, None)
+
+    def _announce(self, step: str) -> None:
         if self.outcome.get("step") != step:
             self.outcome["step"] = step
             if self.watch.on_step is not None:
                 self.watch.on_step(step)
-        self._stop_if_asked(step, None)
 
     def _stop_if_asked(self, step: str, fraction: float | None) -> None:
         if not self.watch.stop.is_set():
@@ -276,7 +279,8 @@ class _Run:
 
         def follow(watch: ProgressCallback) -> ProgressCallback:
             def on_progress(fraction: float) -> None:
-                self.starting(names[min(int(fraction * len(names)), len(names) - 1)])
+                # The path is moving: ``watch`` brakes it on a stop request, at this fraction.
+                self._announce(names[min(int(fraction * len(names)), len(names) - 1)])
                 watch(fraction)
 
             return on_progress

@@ -85,6 +85,7 @@ from handeye_pick.errors import (
     RobotError,
     SafetyRefusal,
     Status,
+    StopRequested,
 )
 from handeye_pick.geometry import Transform
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
@@ -750,7 +751,9 @@ class Cell:
         try:
             yield
         except RobotError as exc:
-            self._halted = f"{type(exc).__name__}: {exc}"
+            # A stop request halted the cell already, with who asked for it.
+            if not (isinstance(exc, StopRequested) and self._halted is not None):
+                self._halted = f"{type(exc).__name__}: {exc}"
             if isinstance(exc, RobotConnectionError):
                 self._close_arm()
             raise

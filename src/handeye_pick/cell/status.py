@@ -45,7 +45,7 @@ class CellStatus:
 
 def halted_problem(reason: str) -> str:
     """The readiness problem of a halted cell."""
-    return f"halted after a fault ({reason}): clear it, then resume"
+    return f"halted ({reason}): clear the cause, then resume"
 
 
 def unread(problems: list[str], halted: str | None) -> CellStatus:

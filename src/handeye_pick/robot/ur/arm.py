@@ -110,6 +110,15 @@ def _state_text(sample: Sample) -> str:
     )
 
 
+def _at_rest_on(sample: Sample, T_target: Transform) -> bool:
+    """The TCP stands within the reached tolerance of ``T_target`` with every joint still."""
+    T_now = ur_pose_to_matrix(sample.tcp_pose)
+    off_m = float(np.linalg.norm(T_now[:3, 3] - T_target[:3, 3]))
+    off_rad = rotation_angle_between(T_now[:3, :3], T_target[:3, :3])
+    still = max(abs(v) for v in sample.qd) < STEADY_JOINT_SPEED_RPS
+    return off_m <= REACHED_TOLERANCE_M and off_rad <= REACHED_TOLERANCE_RAD and still
+
+
 def motion_fraction(T_start: Transform, T_now: Transform, T_target: Transform) -> float:
     """Fraction of a linear move done, 0..1, from the distance left (angle for pure rotations)."""
     total = float(np.linalg.norm(T_target[:3, 3] - T_start[:3, 3]))
@@ -289,6 +298,9 @@ class URRtdeArm:
             fraction,
             lambda reached: self._check_reached(reached, targets[-1]),
             lambda: self.stop_linear(self._stop_decel_mps2),
+            # A path's program is uploaded afresh and counts its operations from zero again,
+            # so after it the word may read exactly as before it (docs/ur-rtde.md).
+            ended_unseen=lambda sample: _at_rest_on(sample, targets[-1]),
         )
 
     def move_joints(
@@ -357,8 +369,10 @@ class URRtdeArm:
         fraction: Callable[[Sample, Sample], float],
         check_reached: Callable[[Sample], None],
         stop: Callable[[], None],
+        ended_unseen: Callable[[Sample], bool] | None = None,
     ) -> Transform:
-        """Send one async move and watch it to its end (see ``move_linear``)."""
+        """Send one async move and watch it to its end (see ``move_linear``; ``ended_unseen``
+        as ``_watch_motion``)."""
         start = self._sample("fresh_sample")
         try:
             self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
@@ -366,7 +380,7 @@ class URRtdeArm:
             if not self._child.call(kind.operation, *kind.args):
                 after = self._sample("sample")
                 raise self._fault(f"{kind.name} to {kind.description} was refused", after)
-            self._watch_motion(kind.name, start, timeout_s, on_progress, fraction)
+            self._watch_motion(kind.name, start, timeout_s, on_progress, fraction, ended_unseen)
             reached = self._sample("fresh_sample")
             self._check_motion_sample(reached, kind.name)
             check_reached(reached)
@@ -455,8 +469,13 @@ class URRtdeArm:
         timeout_s: float,
         on_progress: ProgressCallback | None,
         fraction: Callable[[Sample, Sample], float],
+        ended_unseen: Callable[[Sample], bool] | None = None,
     ) -> None:
-        motion_time_s = 0.0  # time at full speed: runs slower while the speed slider is down
+        """Poll until the async operation the move started has ended. Ended: not running, and
+        either its operation id differs from the one before the move or it was seen running;
+        when neither (the operation id can repeat) ``ended_unseen`` decides from the sample."""
+        motion_time_s = 0.0
+        seen_running = False  # time at full speed: runs slower while the speed slider is down
         last_timestamp = start.timestamp_s
         last_new_sample = last_now = time.monotonic()
         while True:
@@ -471,8 +490,11 @@ class URRtdeArm:
                 raise self._link_lost(name, f"no RTDE data for {STALE_LINK_S} s during {name}")
             # The operation id changes when the move starts, so a move that ended before this
             # first look still reads as done.
-            done = (
-                not sample.async_running and sample.async_operation_id != start.async_operation_id
+            seen_running = seen_running or sample.async_running
+            done = not sample.async_running and (
+                seen_running
+                or sample.async_operation_id != start.async_operation_id
+                or (ended_unseen is not None and ended_unseen(sample))
             )
             if on_progress is not None:
                 on_progress(1.0 if done else fraction(start, sample))
