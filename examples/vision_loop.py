@@ -1,20 +1,27 @@
-"""A vision client driving `handeye-pick run` through a pipe: five capture/pick/place cycles.
+"""A vision client driving `handeye-pick run` through a pipe: five capture/pick/place cycles, the
+vision hidden under the arm's motion.
 
-Starts the simulated UR5e controller (mocks/ur_controller) at the address in config/loop.yaml,
-builds a simulated scene (a table and five boxes, mocks/camera) watched by a wrist camera mounted
-exactly where config/loop/hand_eye.yaml says (a perfect calibration, so every error left is the
-vision's or the cell's), starts
+Starts the simulated UR5e controller (mocks/ur_controller) at the address in the cell config,
+builds a simulated scene (a table and five boxes, mocks/camera) watched by a camera mounted
+exactly where the hand-eye file says (a perfect calibration, so every error left is the vision's
+or the cell's), starts
 
-    handeye-pick run --config config/loop.yaml
+    handeye-pick run --config config/loop.yaml    (or config/loop-eye-to-hand.yaml)
 
-and, five times: asks `run` to capture at the named pose `capture`, renders the cloud from the
-simulated arm's pose, finds the boxes' top faces in it with plain numpy and scipy.ndimage, sends
-them as candidates of a pick, checks that the grasp (planned and reached) landed within 1 mm of
-the true centre of a box's top face, and moves that box to where it was placed. Prints one line
-per cycle and a summary; exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches all
-three processes: `run` stops the arm and exits 130, then the controller is stopped.
+and picks the five boxes. Eye-in-hand (the default, a wrist camera): each cycle asks `run` to
+capture at the named pose `capture`, renders the cloud from the simulated arm's pose, sends the
+arm on to the pose `hover` above the boxes at once and finds the boxes' top faces (plain numpy
+and scipy.ndimage) while it moves, then sends them as candidates of a pick that waits in run's
+queue and plans from the pose latched at the image. Eye-to-hand (`--eye-to-hand`, a camera
+fixed above the table): the first image is taken with the arm aside; after that each image is
+taken on the pick's `view-clear` event, as soon as the arm has left the camera's view, and the
+next pick is queued while the arm places. Every cycle checks that the grasp (planned and
+reached) landed within 1 mm of the true centre of a box's top face and moves that box to where
+it was placed, and prints its cycle time, the share of it the arm moved and the detection time
+hidden under motion. Exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches all three
+processes: `run` stops the arm and exits 130, then the controller is stopped.
 
-Run it from anywhere after `pip install -e .`:  python examples/vision_loop.py
+Run it from anywhere after `pip install -e .`:  python examples/vision_loop.py [--eye-to-hand]
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ from mocks.ur_controller import SimulatedController  # noqa: E402
 from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
 
 CONFIG = ROOT / "config" / "loop.yaml"
+CONFIG_EYE_TO_HAND = ROOT / "config" / "loop-eye-to-hand.yaml"
 CYCLES = 5
 TOLERANCE_MM = 1.0  # largest accepted distance of a grasp from the true top-face centre
 SPEED_FACTOR = 4.0  # the simulated arm moves four times faster than real time
@@ -84,19 +92,21 @@ class Cell:
     config: Path
     host: str
     tcp_offset: tuple[float, ...]  # T_flange_tcp as a UR vector (m, rad)
-    hand_eye_file: Path  # T_flange_cam, Zivid format, mm
+    eye_in_hand: bool
+    hand_eye_file: Path  # T_flange_cam (eye-in-hand) or T_base_cam, Zivid format, mm
 
 
 def read_cell(config: Path) -> Cell:
-    """The controller address, TCP offset and hand-eye file named in a cell config."""
+    """The controller address, TCP offset, camera mounting and hand-eye file of a cell config."""
     doc = yaml.safe_load(config.read_text())
     hand_eye = doc["hand_eye"]
-    if hand_eye["mode"] != "eye-in-hand" or hand_eye["units"] != "mm" or hand_eye.get("invert"):
-        raise ValueError(f"{config}: this example needs an eye-in-hand camera in mm, not inverted")
+    if hand_eye["units"] != "mm" or hand_eye.get("invert"):
+        raise ValueError(f"{config}: this example needs a hand-eye file in mm, not inverted")
     return Cell(
         config=config,
         host=str(doc["robot"]["host"]),
         tcp_offset=tuple(float(v) for v in doc["robot"]["tcp_offset"]),
+        eye_in_hand=hand_eye["mode"] == "eye-in-hand",
         hand_eye_file=(config.parent / hand_eye["file"]).resolve(),
     )
 
@@ -109,11 +119,14 @@ def build_scene() -> Scene:
     return scene
 
 
-def build_camera(scene: Scene, hand_eye_file: Path) -> SimulatedCamera:
-    """A wrist camera mounted at the T_flange_cam the hand-eye file holds (mm -> m)."""
-    T_flange_cam = read_zivid_matrix(hand_eye_file)
-    T_flange_cam[:3, 3] /= 1000.0
-    return SimulatedCamera(scene, INTRINSICS, T_flange_cam=T_flange_cam)
+def build_camera(scene: Scene, cell: Cell) -> SimulatedCamera:
+    """A camera mounted exactly where the hand-eye file says (mm -> m): on the wrist at
+    T_flange_cam, or in the cell at T_base_cam."""
+    T_mount_cam = read_zivid_matrix(cell.hand_eye_file)
+    T_mount_cam[:3, 3] /= 1000.0
+    if cell.eye_in_hand:
+        return SimulatedCamera(scene, INTRINSICS, T_flange_cam=T_mount_cam)
+    return SimulatedCamera(scene, INTRINSICS, T_base_cam=T_mount_cam)
 
 
 def place_box(scene: Scene, name: str, T_base_tcp_grasp: Array, T_base_tcp_place: Array) -> None:
@@ -203,8 +216,8 @@ class RunSession:
             self._lines.put(line)
         self._lines.put(None)  # end of output: the process is gone
 
-    def request(self, op: str, **fields: Any) -> dict[str, Any]:
-        """Send one request and return its reply; RuntimeError if none comes."""
+    def send(self, op: str, **fields: Any) -> str:
+        """Send one request without waiting for its reply; returns its id."""
         self._next_id += 1
         request_id = str(self._next_id)
         stdin = self._process.stdin
@@ -212,17 +225,33 @@ class RunSession:
             raise RuntimeError("handeye-pick run has no input pipe")
         stdin.write(json.dumps({"id": request_id, "op": op, **fields}) + "\n")
         stdin.flush()
+        return request_id
+
+    def line(self) -> dict[str, Any]:
+        """The next line run writes: a reply, or an event of a request that asked for them."""
         try:
             line = self._lines.get(timeout=REPLY_TIMEOUT_S)
         except queue.Empty:
-            raise RuntimeError(f"no reply to {op} within {REPLY_TIMEOUT_S:.0f} s") from None
+            raise RuntimeError(f"nothing from run within {REPLY_TIMEOUT_S:.0f} s") from None
         if line is None:
-            raise RuntimeError(f"handeye-pick run ended (exit {self._process.wait()}) "
-                               f"without answering {op}")
+            raise RuntimeError(f"handeye-pick run ended (exit {self._process.wait()})")
         reply: dict[str, Any] = json.loads(line)
-        if reply.get("id") != request_id:
-            raise RuntimeError(f"reply {reply} does not answer request {request_id} ({op})")
         return reply
+
+    def reply(self, request_id: str) -> dict[str, Any]:
+        """The reply to ``request_id``, skipping its event lines; RuntimeError if another
+        request's reply comes first (run answers motion requests in the order they came)."""
+        while True:
+            reply = self.line()
+            if "event" in reply and reply.get("id") == request_id:
+                continue
+            if reply.get("id") != request_id:
+                raise RuntimeError(f"{reply} came where the reply to {request_id} was due")
+            return reply
+
+    def request(self, op: str, **fields: Any) -> dict[str, Any]:
+        """Send one request and return its reply; RuntimeError if none comes."""
+        return self.reply(self.send(op, **fields))
 
     def close(self) -> int:
         """Send quit, close the pipe and return run's exit status."""
@@ -251,46 +280,151 @@ def nearest_box(scene: Scene, point_m: Array) -> tuple[str, float]:
     return name, distances[name]
 
 
+@dataclass
+class Timing:
+    """Where one cycle's wall time went (s): all of it, the arm moving, detection hidden."""
+
+    cycle_s: float
+    moving_s: float  # controller time the arm moved, from the simulator's motion record
+    hidden_s: float  # detection time that ran while the arm moved
+
+    def line(self) -> str:
+        return (f"{self.cycle_s:.2f} s, arm moving {self.moving_s / self.cycle_s:.0%}, "
+                f"vision hidden {self.hidden_s * 1000.0:.0f} ms")
+
+
+def check_pick(scene: Scene, pick: dict[str, Any], name: str | None = None) -> tuple[
+    list[str], str, float, float
+]:
+    """A placed pick's grasp against the true box centres: (problems, the box picked, planned
+    and reached grasp's distance from its top centre in mm)."""
+    grasp = pose_to_matrix(pick["targets"]["grasp"])
+    reached = pose_to_matrix(pick["reached"]["grasp"])
+    nearest, planned_mm = nearest_box(scene, grasp[:3, 3])
+    name = name or nearest
+    planned_mm = float(np.linalg.norm(scene.top_centre_m(name) - grasp[:3, 3])) * 1000.0
+    reached_mm = float(np.linalg.norm(scene.top_centre_m(name) - reached[:3, 3])) * 1000.0
+    problems = [f"{what} grasp {error_mm:.2f} mm from box {name}'s top centre"
+                for what, error_mm in (("planned", planned_mm), ("reached", reached_mm))
+                if error_mm > TOLERANCE_MM]
+    return problems, name, planned_mm, reached_mm
+
+
 def run_cycle(number: int, run: RunSession, controller: SimulatedController, scene: Scene,
               camera: SimulatedCamera) -> list[str]:
-    """One capture/pick/place cycle; returns what went wrong (empty when every check passed)."""
+    """One eye-in-hand capture/pick/place cycle, vision under motion: the arm heads for the
+    hover pose as soon as the image is taken and the boxes are found meanwhile; the pick waits
+    in run's queue and plans from the pose latched at the image. Returns what went wrong."""
+    started, first_motion = time.monotonic(), len(controller.motions)
     capture = run.request("capture", pose="capture")
     if not capture.get("ok"):
         return [f"capture failed: {capture.get('error')}"]
-    cloud = camera.capture_from(controller)
+    cloud = camera.capture_from(controller)  # the acquisition: the arm stands still
     latched = pose_to_matrix(capture["flange_pose_ur"])
     now = pose_to_matrix(controller.snapshot().flange_pose)
     problems = []
     if float(np.abs(latched - now).max()) > 1e-6:
-        problems.append("the latched flange pose is not where the arm stands")
+        problems.append("the latched flange pose is not where the arm stood at the image")
+    hover = run.send("move", pose="hover")
+    detect_start = time.monotonic()
     boxes = find_boxes(cloud)
+    detect_end = time.monotonic()
     if not boxes:
+        run.reply(hover)
         return [*problems, "no box found in the cloud"]
     candidates = [{"position_mm": [round(float(v), 4) for v in centre]} for centre in boxes]
-    pick = run.request("pick", capture_id=capture["capture_id"], candidates=candidates)
+    pick_id = run.send("pick", capture_id=capture["capture_id"], candidates=candidates)
+    moved = run.reply(hover)
+    hover_end = time.monotonic()
+    pick = run.reply(pick_id)
+    if not moved.get("ok"):
+        return [*problems, f"move to hover ended {moved.get('status')}: {moved.get('error')}"]
     if not pick.get("ok") or pick.get("status") != "placed":
         return [*problems, f"pick ended {pick.get('status')}: {pick.get('error')}"]
-    grasp = pose_to_matrix(pick["targets"]["grasp"])
-    reached = pose_to_matrix(pick["reached"]["grasp"])
-    name, planned_mm = nearest_box(scene, grasp[:3, 3])
-    reached_mm = float(np.linalg.norm(scene.top_centre_m(name) - reached[:3, 3])) * 1000.0
-    for what, error_mm in (("planned", planned_mm), ("reached", reached_mm)):
-        if error_mm > TOLERANCE_MM:
-            problems.append(f"{what} grasp {error_mm:.2f} mm from box {name}'s top centre")
-    place_box(scene, name, reached, pose_to_matrix(pick["place"]["pose"]))
+    timing = Timing(time.monotonic() - started,
+                    sum(m["moving_s"] for m in controller.motions[first_motion:]),
+                    max(0.0, min(detect_end, hover_end) - detect_start))
+    found, name, planned_mm, reached_mm = check_pick(scene, pick)
+    place_box(scene, name, pose_to_matrix(pick["reached"]["grasp"]),
+              pose_to_matrix(pick["place"]["pose"]))
     print(f"cycle {number}: boxes seen {len(boxes)}, picked box {name} (candidate "
           f"{pick['candidate']}), grasp {planned_mm:.2f} mm planned / {reached_mm:.2f} mm reached "
-          f"from its top centre, placed at {pick['place']['index']}, {pick['cycle_s']:.1f} s",
+          f"from its top centre, placed at {pick['place']['index']}, {timing.line()}",
           flush=True)
-    return problems
+    return problems + found
+
+
+def run_eye_to_hand(run: RunSession, controller: SimulatedController, scene: Scene,
+                    camera: SimulatedCamera) -> tuple[int, list[str]]:
+    """CYCLES picks with the camera fixed in the cell, vision under motion: the first image is
+    taken with the arm aside; after that, each image is taken on the pick's ``view-clear`` event
+    (the arm has left the camera's view) and the next pick is queued while the arm places.
+    One candidate per pick, the tallest box, so the client knows which box the arm carries.
+    Returns the cycles done and what went wrong."""
+    first = run.request("capture")  # to the capture pose, out of the camera's view
+    if not first.get("ok"):
+        return 0, [f"capture failed: {first.get('error')}"]
+    T_base_cam = camera.T_base_cam()
+
+    def next_pick() -> tuple[str, str] | None:
+        boxes = find_boxes(camera.capture())
+        if not boxes:
+            return None
+        point = [round(float(v), 4) for v in boxes[0]]
+        name, _ = nearest_box(scene, (T_base_cam @ np.append(np.array(point) / 1000.0, 1.0))[:3])
+        return run.send("pick", candidates=[{"position_mm": point}], events=True), name
+
+    pending = next_pick()
+    for number in range(1, CYCLES + 1):
+        if pending is None:
+            return number, ["no box found in the cloud"]
+        pick_id, name = pending
+        started, first_motion = time.monotonic(), len(controller.motions)
+        while True:  # the pick runs: wait until the arm has left the camera's view
+            line = run.line()
+            if "ok" in line:
+                return number, [f"pick ended {line.get('status')} before the arm left the view: "
+                                f"{line.get('error')}"]
+            if line.get("event") == "view-clear":
+                break
+        T_base_box = scene.boxes[name].T_base_box.copy()
+        scene.remove_box(name)  # in the gripper, out of the camera's view
+        detect_start = time.monotonic()
+        pending = next_pick() if number < CYCLES else None
+        detect_end = time.monotonic()
+        pick = run.reply(pick_id)
+        if not pick.get("ok") or pick.get("status") != "placed":
+            return number, [f"pick ended {pick.get('status')}: {pick.get('error')}"]
+        timing = Timing(time.monotonic() - started,
+                        sum(m["moving_s"] for m in controller.motions[first_motion:]),
+                        detect_end - detect_start)  # all of it ran while the arm placed
+        scene.add_box(name, scene_size(name), T_base_box)
+        found, name, planned_mm, reached_mm = check_pick(scene, pick, name)
+        place_box(scene, name, pose_to_matrix(pick["reached"]["grasp"]),
+                  pose_to_matrix(pick["place"]["pose"]))
+        print(f"cycle {number}: picked box {name}, grasp {planned_mm:.2f} mm planned / "
+              f"{reached_mm:.2f} mm reached from its top centre, placed at "
+              f"{pick['place']['index']}, {timing.line()}", flush=True)
+        if found:
+            return number, found
+    return CYCLES, []
+
+
+def scene_size(name: str) -> tuple[float, float, float]:
+    return BOXES[name][0]
 
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", type=Path, default=CONFIG, help="cell config (loop.yaml)")
-    cell = read_cell(parser.parse_args(argv).config.resolve())
+    parser.add_argument("--config", type=Path, default=None,
+                        help="cell config (config/loop.yaml, or loop-eye-to-hand.yaml)")
+    parser.add_argument("--eye-to-hand", action="store_true",
+                        help="the camera fixed above the table (config/loop-eye-to-hand.yaml)")
+    args = parser.parse_args(argv)
+    config = args.config or (CONFIG_EYE_TO_HAND if args.eye_to_hand else CONFIG)
+    cell = read_cell(config.resolve())
     scene = build_scene()
-    camera = build_camera(scene, cell.hand_eye_file)
+    camera = build_camera(scene, cell)
     started = time.monotonic()
     problems: list[str] = []
     done = 0
@@ -298,7 +432,10 @@ def main(argv: list[str] | None = None) -> int:
                              speed_factor=SPEED_FACTOR) as controller:
         run = RunSession(cell.config)
         try:
-            while done < CYCLES and not problems:
+            if not cell.eye_in_hand:
+                done, found = run_eye_to_hand(run, controller, scene, camera)
+                problems += [f"cycle {done}: {p}" for p in found]
+            while cell.eye_in_hand and done < CYCLES and not problems:
                 done += 1
                 problems += [f"cycle {done}: {p}"
                              for p in run_cycle(done, run, controller, scene, camera)]
