@@ -10,12 +10,13 @@ place pose and no gripper (a gripper's settle time is a deliberate wait, not ove
   (start Python, connect, upload ur_rtde's script, pick, place, exit) with the same inputs;
 - bare ur_rtde: the floor, what any program pays the controller for the same cycle with no check
   at all, straight from ur_rtde in this process: ``getTCPOffset``, ``getActualTCPPose``, two
-  ``isPoseWithinSafetyLimits`` and two ``getInverseKinematicsHasSolution``, and the six moves
-  as ur_rtde's synchronous ``moveL`` to the poses the session reached.
+  ``isPoseWithinSafetyLimits`` and two ``getInverseKinematicsHasSolution``, and the motion
+  commands of the session's last cycle as the simulator recorded them, each as ur_rtde's
+  synchronous ``moveL`` (a single move) or ``moveL(path)`` (a blended path, ``--blend-mm``).
 
 Overhead of a cycle = its wall time minus the controller time spent moving during it, taken from
 the simulated controller's motion record. Also prints where a session cycle's time goes per
-controller call. Run: ``.venv/bin/python benchmarks/cycle.py [--cycles 50]``.
+controller call. Run: ``.venv/bin/python benchmarks/cycle.py [--cycles 50] [--blend-mm 20]``.
 """
 
 from __future__ import annotations
@@ -45,7 +46,6 @@ from handeye_pick.detection import detection_from_point_mm  # noqa: E402
 from handeye_pick.geometry import (  # noqa: E402
     invert,
     transform_point,
-    ur_pose_list,
     ur_pose_to_matrix,
 )
 from handeye_pick.robot.port import RobotArm  # noqa: E402
@@ -65,7 +65,7 @@ hand_eye:
   file: {ROOT / "config" / "demo" / "hand_eye.yaml"}
   units: mm
 grasp: {{approach_mm: 100, retreat_mm: 100}}
-motion: {{speed_mps: 0.25, accel_mps2: 1.2, grasp_speed_mps: 0.05}}
+motion: {{speed_mps: 0.25, accel_mps2: 1.2, grasp_speed_mps: 0.05, blend_mm: 0}}
 workspace: {{min_mm: [-800, -800, 20], max_mm: [800, 800, 700], max_tilt_deg: 30}}
 audit: {{file: picks.jsonl}}
 place:
@@ -109,9 +109,10 @@ def _moving_s(ctl: SimulatedController, first_motion: int) -> tuple[float, int]:
 
 
 def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple[
-    list[float], dict[str, list[float]], list[list[float]]
+    list[float], dict[str, list[float]], list[dict[str, Any]]
 ]:
-    """Overheads, seconds per arm call, and the TCP poses the last cycle's six moves reached."""
+    """Overheads, seconds per arm call, and the motion commands of the last cycle as the
+    simulated controller recorded them."""
     seconds: dict[str, list[float]] = defaultdict(list)
 
     def connect(cell_config: CellConfig) -> RobotArm:
@@ -121,6 +122,7 @@ def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple
     with Cell(config, connect=connect) as cell:
         count = len(ctl.motions)
         for _ in range(cycles):
+            first_command = len(ctl.commands)
             start = time.perf_counter()
             capture = cell.capture()
             assert capture.T_base_flange is not None
@@ -131,18 +133,33 @@ def _session(config: CellConfig, ctl: SimulatedController, cycles: int) -> tuple
                 raise RuntimeError(f"cycle ended {result.status}")
             moving_s, count = _moving_s(ctl, count)
             overheads.append(wall_s - moving_s)
-    return overheads, seconds, [ur_pose_list(T) for T in result.reached.values()]
+    motions = [c for c in ctl.commands[first_command:] if c["kind"] in ("moveL", "movePath")]
+    return overheads, seconds, motions
+
+
+def _bare_move(control: Any, command: dict[str, Any]) -> bool:
+    """One recorded motion command again, synchronously: moveL, or moveL(path)."""
+    if command["kind"] == "moveL":
+        return bool(control.moveL(command["target"], command["speed"], command["accel"]))
+    rows = [
+        [*target, speed, accel, radius]
+        for target, speed, accel, radius in zip(
+            command["waypoints"], command["speeds"], command["accels"], command["radii"],
+            strict=True,
+        )
+    ]
+    return bool(control.moveL(rows))
 
 
 def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
-          moves: list[list[float]]) -> tuple[list[float], list[float]]:
-    """Overheads, and the seconds of each synchronous moveL."""
+          motions: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
+    """Overheads, and the seconds of each synchronous motion command."""
     import rtde_control
     import rtde_receive
 
     receive = rtde_receive.RTDEReceiveInterface(HOST)
     control = rtde_control.RTDEControlInterface(HOST)
-    motion = config.motion
+    targets = [c["target"] if c["kind"] == "moveL" else c["waypoints"][-1] for c in motions]
     overheads = []
     move_s = []
     count = len(ctl.motions)
@@ -151,13 +168,13 @@ def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
             start = time.perf_counter()
             control.getTCPOffset()
             receive.getActualTCPPose()
-            for pose in moves[:2]:
+            for pose in targets[:2]:
                 control.isPoseWithinSafetyLimits(pose)
                 control.getInverseKinematicsHasSolution(pose)
-            for pose in moves:
+            for command in motions:
                 move_start = time.perf_counter()
-                if not control.moveL(pose, motion.speed_mps, motion.accel_mps2):
-                    raise RuntimeError(f"bare moveL to {pose} refused")
+                if not _bare_move(control, command):
+                    raise RuntimeError(f"bare {command['kind']} refused: {command}")
                 move_s.append(time.perf_counter() - move_start)
             wall_s = time.perf_counter() - start
             moving_s, count = _moving_s(ctl, count)
@@ -200,20 +217,27 @@ def _stats(values: list[float]) -> tuple[float, float]:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=int, default=50, help="cycles per variant (default 50)")
+    parser.add_argument("--blend-mm", type=float, default=0.0,
+                        help="motion.blend_mm of the cell (default 0: every target a stop)")
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp, SimulatedController(
         host=HOST, tcp_offset=TCP_OFFSET, instant=True
     ) as ctl:
         folder = Path(tmp)
         config_path = folder / "cell.yaml"
-        config_path.write_text(CELL_YAML)
+        config_path.write_text(CELL_YAML.replace("blend_mm: 0}", f"blend_mm: {args.blend_mm:g}}}"))
         config = load_config(config_path)
-        session, seconds, moves = _session(config, ctl, args.cycles)
+        session, seconds, motions = _session(config, ctl, args.cycles)
         cli = _cli(config_path, config, ctl, args.cycles, folder)
-        bare, bare_move_s = _bare(config, ctl, args.cycles, moves)
+        bare, bare_move_s = _bare(config, ctl, args.cycles, motions)
 
+    kinds = ", ".join(
+        f"{c['kind']}" + (f" of {len(c['waypoints'])}" if c["kind"] == "movePath" else "")
+        for c in motions
+    )
     print(f"software overhead per capture/pick/place cycle ({args.cycles} cycles each, "
-          f"simulated controller at {HOST}, 500 Hz, instant motion)")
+          f"simulated controller at {HOST}, 500 Hz, instant motion, blend_mm {args.blend_mm:g}: "
+          f"{kinds})")
     rows: list[tuple[str, list[float]]] = [("one session (Cell)", session),
                                            ("one CLI pick process per cycle", cli),
                                            ("bare ur_rtde, no checks", bare)]
@@ -225,8 +249,10 @@ def main() -> None:
     own = statistics.median(session) - statistics.median(bare)
     print(f"  session - bare ur_rtde: {own * 1000.0:+.1f} ms per cycle (median): what the "
           f"session's checks, watch, child process and audit cost beyond the controller calls")
-    print(f"  bare synchronous moveL: median {statistics.median(bare_move_s) * 1000.0:.2f} ms per "
-          "move (instant motion: the command's round trips and ur_rtde's wait for the end)")
+    print(f"  session / bare ur_rtde: {statistics.median(session) / statistics.median(bare):.2f} x "
+          "(median)")
+    print(f"  bare synchronous motion command: median {statistics.median(bare_move_s) * 1000.0:.2f}"
+          " ms (instant motion: the command's round trips and ur_rtde's wait for the end)")
     print("where a session cycle's time goes (per call, all cycles):")
     per_cycle: Callable[[list[float]], float] = lambda v: sum(v) * 1000.0 / args.cycles  # noqa: E731
     for name, values in sorted(seconds.items(), key=lambda item: -sum(item[1])):
