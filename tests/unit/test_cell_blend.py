@@ -269,6 +269,35 @@ def test_via_poses_are_passed_through_on_the_way_to_the_place(tmp_path: Path) ->
     assert "via over" in _records(config.audit.file)[0]["targets"]  # type: ignore[operator]
 
 
+def test_capture_via_poses_lead_to_the_capture_pose_as_one_blended_path(
+    tmp_path: Path,
+) -> None:
+    extra = PLACE.replace("  pose: home\n", "  pose: clear\n  via: [over]\n").replace(
+        "\nposes:\n", "\nposes:\n  over: {tcp_pose: [-0.35, 0.15, 0.35, 3.14159265, 0, 0]}\n"
+    )
+    config = _blended_config(tmp_path, 50, extra=extra)
+    assert [pose.name for pose in config.capture.via] == ["over"]
+    arm = ScriptedArm(config.audit.file)
+    cell = _cell(config, arm)
+    cell.capture()
+    (path,) = arm.paths()
+    np.testing.assert_allclose(path[0].T_base_tcp[:3, 3], [-0.35, 0.15, 0.35])
+    np.testing.assert_allclose(path[1].T_base_tcp[:3, 3], [-0.30, 0.0, 0.40])  # the pose
+    assert path[0].blend_m > 0.0
+    assert path[1].blend_m == 0.0  # the camera needs the arm at rest there
+    plan = _records(config.audit.file)[0]
+    assert list(plan["targets"]) == ["via over", "clear"]  # type: ignore[call-overload]
+    arm.calls.clear()
+    cell.capture("home")  # another pose: no via
+    assert arm.paths() == []
+
+
+def test_capture_via_needs_a_capture_pose(tmp_path: Path) -> None:
+    extra = PLACE.replace("  pose: home\n", "  via: [clear]\n")
+    with pytest.raises(ConfigError, match=r"capture\.via: via poses lead to the capture pose"):
+        _blended_config(tmp_path, 50, extra=extra)
+
+
 def test_a_via_pose_must_be_a_known_tcp_pose(tmp_path: Path) -> None:
     joint = PLACE.replace("  retreat_mm: 70\n", "  retreat_mm: 70\n  via: [home]\n")
     with pytest.raises(ConfigError, match=r"place\.via: pose 'home' is a joint pose"):

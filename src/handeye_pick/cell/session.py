@@ -76,7 +76,7 @@ from handeye_pick.cell.status import (
 )
 from handeye_pick.cell.steps import JointMove, Move, Step
 from handeye_pick.config.load import load_config
-from handeye_pick.config.schema import CellConfig, NamedPose, PlaceConfig
+from handeye_pick.config.schema import CellConfig, NamedPose, PlaceConfig, via_move
 from handeye_pick.detection import Detection
 from handeye_pick.errors import (
     ConfigError,
@@ -405,11 +405,24 @@ class Cell:
             )
         self._cycle += 1
         if name is not None:
-            self.move_to(name, request_id=request_id)
+            self._move_to_capture(name, request_id)
         T_base_flange = self._steady_flange_pose() if eye_in_hand else None
         capture = self._captures.register(T_base_flange, "latched", self._cycle)
         self._next_audit().append(capture.record(request_id))
         return capture
+
+    def _move_to_capture(self, name: str, request_id: str | None) -> None:
+        """To the capture pose ``name``; to ``capture.pose`` through ``capture.via``, blended
+        as ``motion.blend_mm`` allows."""
+        capture = self.config.capture
+        via = capture.via if name == capture.pose else ()
+        steps = [
+            Move(via_move(pose.name), pose.T_base_tcp, fixed=True)
+            for pose in via
+            if pose.T_base_tcp is not None  # the config loader takes only TCP poses as via
+        ]
+        steps.append(_named_move(self.config.pose(name)))
+        self._run_fixed(steps, f"move {name}", request_id, {"pose": name})
 
     def latch_flange_pose(self, *, request_id: str | None = None) -> Transform:
         """``T_base_flange`` (m) where the arm stands, in either mode, moving nothing: waits

@@ -152,8 +152,9 @@ def read_capture(
     top: Fields, poses: tuple[NamedPose, ...], steps: tuple[str, ...]
 ) -> CaptureConfig:
     """``capture``: the named pose a capture moves to first, how long it waits for rest, and
-    ``view_clear_at``, one of ``steps`` (the moves of a pick and its place)."""
-    capture = top.section("capture", ("pose", "view_clear_at", *_CAPTURE_NUMBERS))
+    ``view_clear_at``, one of ``steps`` (the moves of a pick and its place), and ``via``, the
+    names of TCP poses the move to ``pose`` passes through."""
+    capture = top.section("capture", ("pose", "view_clear_at", "via", *_CAPTURE_NUMBERS))
     name = capture.string("pose") if capture.has("pose") else None
     if name is not None and name not in {pose.name for pose in poses}:
         known = ", ".join(pose.name for pose in poses) or "none"
@@ -161,8 +162,11 @@ def read_capture(
     view_clear_at = (
         capture.string("view_clear_at", choices=steps) if capture.has("view_clear_at") else None
     )
+    if capture.has("via") and name is None:
+        capture.fail("via", "via poses lead to the capture pose: set capture.pose too")
     return CaptureConfig(
         pose=name,
         steady_timeout_s=capture.number("steady_timeout_s", _CAPTURE_NUMBERS),
         view_clear_at=view_clear_at,
+        via=_via(capture, poses) if capture.has("via") else (),
     )

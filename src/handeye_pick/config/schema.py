@@ -168,6 +168,8 @@ class CaptureConfig:
     # eye-to-hand: the step (retreat, a "via NAME" pose, ...) past which the arm is out of the
     # camera's view; run then tells the vision client (a view-clear event)
     view_clear_at: str | None = None
+    # TCP poses the move to ``pose`` passes through, blended, on its way from the last place
+    via: tuple[NamedPose, ...] = ()
 
 
 @dataclass(frozen=True)
