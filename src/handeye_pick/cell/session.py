@@ -416,7 +416,7 @@ class Cell:
         as ``motion.blend_mm`` allows."""
         capture = self.config.capture
         via = capture.via if name == capture.pose else ()
-        steps = [
+        steps: list[Step] = [
             Move(via_move(pose.name), pose.T_base_tcp, fixed=True)
             for pose in via
             if pose.T_base_tcp is not None  # the config loader takes only TCP poses as via
