@@ -2,22 +2,25 @@
 can inject, a killed controller and a SIGKILLed ``run`` strike at seeded random moments.
 
 Starts the simulated controller (``python -m mocks.ur_controller``, instant motion, a Robotiq
-gripper with a 40 mm part) as its own process on 127.0.0.247, so killing it is a real SIGKILL and
-restarting it a new process, and ``handeye-pick run`` on a cell with a place pose. Each cycle is a
-capture and a pick that places. Before a cycle, with probability ``--fault-rate``, one event of a
-random kind (KINDS) is armed: a fault injected through the admin port at a random moment of the
-coming pick (``FAULT@move:K:FRACTION``, K a random move of the pick, FRACTION 0.05..0.95), the
-part taken away (a missed grasp), or a timer that SIGKILLs the controller or ``run`` a random
-fraction of a typical cycle after the capture is sent.
+gripper with a 40 mm part) as its own process on ``--host`` (default 127.0.0.247), so killing it
+is a real SIGKILL and restarting it a new process, and ``handeye-pick run`` on a cell with a place
+pose. Each cycle is a capture and a pick that places. Before a cycle, with probability
+``--fault-rate``, one event is armed, its kind the next of a shuffled deck of every kind (KINDS;
+a new deck once all are dealt, so every kind comes as soon as there were as many events): a
+fault injected through the admin port at a random moment of the coming pick
+(``FAULT@move:K:FRACTION``, K a random move of the pick, FRACTION 0.05..0.95), the part taken
+away (a missed grasp), or a timer that SIGKILLs the controller or ``run`` a random fraction of a
+typical cycle after the capture is sent.
 
 After the cycle, as an operator and a supervisor would: a ``run`` that was killed is restarted
 (it must take the one-session-per-robot lock again, its orphaned ur_rtde child must exit); a
 halting reply (fault, dropped, aborted) must be followed by a move request answered ``halted``;
 the cause is cleared from what the pendant shows (dashboard unlock, restart safety / power on /
-brake release, close safety popup, remote control on, the part back, the gripper reset) or by
-restarting the controller (it was killed, or the gripper went silent); the controller's command
-record must show no motion command since the fault; then ``resume`` is sent until it answers
-``ready`` (bounded attempts). A missed grasp leaves the cell ready: no resume.
+brake release, close safety popup, remote control on, the part back, the gripper reset or its
+fingers opened) or by restarting the controller (it was killed, the gripper went silent, or the
+pick ended before the armed fault's move, which would strike a later cycle: "not fired"); the
+controller's command record must show no motion command since the fault; then ``resume`` is sent
+until it answers ``ready`` (bounded attempts). A missed grasp leaves the cell ready: no resume.
 
 At the end it checks the audit file whole (every line parses, every plan has exactly one
 outcome, an ``abandoned`` one only for a pick whose ``run`` was killed) and prints per kind how
@@ -25,7 +28,8 @@ many were injected and how each ended, each invariant with PASS or FAIL, cycles 
 figures of every ``run`` process and its ur_rtde child. Exit 0 when every invariant holds, 1
 otherwise, 3 when the controller cannot listen on the address. Every wait is bounded.
 
-Run: ``.venv/bin/python benchmarks/chaos.py [--cycles 2000] [--seed 1] [--fault-rate 0.05]``.
+Run: ``.venv/bin/python benchmarks/chaos.py [--cycles 2000] [--seed 1] [--fault-rate 0.05]
+[--host 127.0.0.247] [--folder DIR]``; tests/integration/test_chaos_short.py runs a short one.
 """
 
 from __future__ import annotations
@@ -223,6 +227,18 @@ class Soak:
     replied: Counter[str] = field(default_factory=Counter)  # request id -> replies
     cycle_s: list[float] = field(default_factory=list)  # wall time of placed cycles
     last_pick: dict[str, Any] = field(default_factory=dict)  # the latest pick request
+    deck: list[str] = field(default_factory=list)  # the kinds still to come in this round
+    armed_at: int | None = None  # the controller's move index of a fault armed for this cycle
+    elapsed_s: float = 0.0  # wall time of the cycles
+    flat_lines: list[str] = field(default_factory=list)  # the figures of each run process
+
+    def next_kind(self) -> str:
+        """The next kind from a shuffled deck of every kind, so that a short soak meets each
+        kind as soon as it has had as many events as there are kinds."""
+        if not self.deck:
+            self.deck = sorted(KINDS)
+            self.rng.shuffle(self.deck)
+        return self.deck.pop()
 
     # --- run ---------------------------------------------------------------------------------
 
@@ -325,9 +341,11 @@ class Soak:
     def arm(self, name: str, move: int, fraction: float, delay: float) -> threading.Timer | None:
         """Arm the event ``name`` for the coming cycle; a kill's timer, started."""
         kind = KINDS[name]
+        self.armed_at = None
         if kind.spec is not None:
-            index = self.controller.motions() + move
-            self.controller.admin({"op": "inject", "spec": f"{kind.spec}@move:{index}:{fraction}"})
+            self.armed_at = self.controller.motions() + move
+            spec = f"{kind.spec}@move:{self.armed_at}:{fraction}"
+            self.controller.admin({"op": "inject", "spec": spec})
         elif name == "missed-grasp":
             self.controller.admin({"op": "set_part", "width_mm": None})
         if kind.kill is None:
@@ -342,9 +360,17 @@ class Soak:
 
     # --- recovery ----------------------------------------------------------------------------
 
-    def recover(self, name: str | None, ending: str) -> None:
+    def unfired(self) -> bool:
+        """A fault armed for this cycle that has not fired (the pick ended before its move):
+        it would strike a later cycle, so only a new controller process clears it."""
+        armed_at, self.armed_at = self.armed_at, None
+        return (armed_at is not None and self.controller.alive
+                and self.controller.motions() < armed_at)
+
+    def recover(self, name: str | None, ending: str, unfired: bool = False) -> None:
         """What an operator (and a supervisor) does after the event ``name`` ended in
-        ``ending``; checks nothing moved between the ending and the resume."""
+        ``ending``; checks nothing moved between the ending and the resume. ``unfired``: the
+        event's fault is still armed in the controller."""
         if ending == "no reply" or self.run.pipe.process.poll() is not None:
             self.restart_run()
         motions = self.controller.motions() if self.controller.alive else None
@@ -353,7 +379,7 @@ class Soak:
             self.check("a halted session answers a motion request halted",
                        blocked["status"] == "halted", f"after {ending}: {blocked}")
         kind = KINDS[name] if name is not None else Kind()
-        if not self.controller.alive or kind.restart_controller:
+        if not self.controller.alive or kind.restart_controller or unfired:
             self.controller.kill()
             self.controller.start()
             motions = None  # a new controller process has run nothing yet
@@ -385,7 +411,9 @@ class Soak:
         if not state["part_present"]:
             self.controller.admin({"op": "set_part", "width_mm": PART_MM})
         if _gripper(self.host, "GET FLT") not in ("FLT 0", None):
-            _gripper(self.host, "SET ACT 0")  # reset: the session activates it again
+            _gripper(self.host, "SET ACT 0")  # reset: the session activates it, fingers open
+        elif _gripper(self.host, "GET POS") not in ("POS 0", None):
+            _gripper(self.host, "SET POS 0 GTO 1")  # fingers left closed: open from the pendant
 
     def resume(self, name: str | None) -> None:
         first: str | None = None
@@ -442,19 +470,16 @@ def _gripper(host: str, request: str) -> str | None:
         return None
 
 
-def soak(soak_state: Soak, cycles: int, fault_rate: float) -> float:
-    """Run the cycles; the wall time they took."""
+def soak(soak_state: Soak, cycles: int, fault_rate: float) -> None:
+    """Run the cycles."""
     s = soak_state
-    names = sorted(KINDS)
-    started = time.monotonic()
     for number in range(1, cycles + 1):
         # Every draw is made whatever happens after it, so a seed gives the same events.
         strike = s.rng.random() < fault_rate
-        name = s.rng.choice(names)
         move = s.rng.randint(1, PICK_MOVES)
         fraction = round(s.rng.uniform(0.05, 0.95), 2)
         delay = s.rng.random()
-        event = name if strike else None
+        event = s.next_kind() if strike else None
         timer = None
         if event is not None:
             s.injected[event] += 1
@@ -467,24 +492,24 @@ def soak(soak_state: Soak, cycles: int, fault_rate: float) -> float:
             ending = "no reply"
         if timer is not None:
             timer.join()  # the kill was sent, perhaps after the cycle ended: wait for its end
-            by_controller = KINDS[name].kill == "controller"
+            by_controller = KINDS[event].kill == "controller"
             killed = s.controller.process if by_controller else s.run.pipe.process
             assert killed is not None
             killed.wait(timeout=10)
+        unfired = s.unfired()
         if event is None and ending == "placed":
             s.sample()
             continue
-        s.endings[event or "(none)"][ending] += 1
+        s.endings[event or "(none)"][ending + (" (not fired)" if unfired else "")] += 1
         if event is None:
             s.fail(f"cycle {number} without an injected event ended {ending} (the controller's "
                    f"last motion: {s.controller.last_motion_end()})")
-        s.recover(event, ending)
+        s.recover(event, ending, unfired)
         with (s.folder / "events.jsonl").open("a") as log:  # for a person reading after a FAIL
             log.write(json.dumps({"cycle": number, "event": event, "move": move,
                                   "fraction": fraction, "delay": delay, "ending": ending,
                                   "last_request": len(s.ops),
                                   "run_fds": len(_descriptors(s.run.pipe.process.pid))}) + "\n")
-    return time.monotonic() - started
 
 
 def audit_check(s: Soak) -> None:
@@ -568,37 +593,43 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--fault-rate", type=float, default=0.05,
                         help="probability that an event strikes a cycle (default 0.05)")
-    parser.add_argument("--host", default=HOST, help="loopback address of the controller")
+    parser.add_argument("--host", default=HOST,
+                        help=f"loopback address of the controller (default {HOST})")
     parser.add_argument("--folder", type=Path, help="keep the audit file, records and logs here")
     args = parser.parse_args(argv)
+    # SIGTERM ends the soak as Ctrl-C does: through the finally that kills what it started.
+    signal.signal(signal.SIGTERM, signal.default_int_handler)
     with tempfile.TemporaryDirectory() as tmp:
         folder = args.folder or Path(tmp)
         folder.mkdir(parents=True, exist_ok=True)
-        return _soak_in(folder, args)
+        try:
+            s = chaos_soak(folder, args.host, args.cycles, args.seed, args.fault_rate)
+        except OSError as exc:
+            print(f"chaos: {exc}")
+            return EXIT_CANNOT_LISTEN
+    report(s, args)
+    return EXIT_BROKEN if s.failures else 0
 
 
-def _soak_in(folder: Path, args: argparse.Namespace) -> int:
+def chaos_soak(folder: Path, host: str, cycles: int, seed: int, fault_rate: float) -> Soak:
+    """The whole soak in ``folder`` with the controller on ``host``, every invariant checked
+    (``Soak.failures`` lists what broke); OSError when the controller cannot listen there."""
     config = folder / "cell.yaml"
-    config.write_text(CELL_YAML.replace("127.0.0.250", args.host)
+    config.write_text(CELL_YAML.replace("127.0.0.250", host)
                       .replace("robot:\n", "robot:\n" + ROBOTIQ, 1))
     T_flange_cam = load_hand_eye(ROOT / "config" / "demo" / "hand_eye.yaml",
                                  HandEyeMode.EYE_IN_HAND, "mm").T_cal
-    controller = Controller(args.host, folder)
-    try:
-        controller.start()
-    except OSError as exc:
-        print(f"chaos: {exc}")
-        return EXIT_CANNOT_LISTEN
-    s = Soak(args.host, folder, random.Random(args.seed), controller, config, T_flange_cam)
-    elapsed_s = 0.0
+    controller = Controller(host, folder)
+    controller.start()
+    s = Soak(host, folder, random.Random(seed), controller, config, T_flange_cam)
     try:
         s.start_run()
         started = time.monotonic()
         try:
-            soak(s, args.cycles, args.fault_rate)
+            soak(s, cycles, fault_rate)
         except Broken as exc:
             s.fail(str(exc))
-        elapsed_s = time.monotonic() - started
+        s.elapsed_s = time.monotonic() - started
         if s.run.pipe.process.poll() is None:
             bye = s.ask({"op": "quit"})
             extra = s.run.pipe.process.stdout.read() if s.run.pipe.process.stdout else b""
@@ -613,12 +644,12 @@ def _soak_in(folder: Path, args: argparse.Namespace) -> int:
         controller.kill()
     audit_check(s)
     reply_check(s)
-    flat_lines = flat_check(s)
-    report(s, args, elapsed_s, flat_lines)
-    return EXIT_BROKEN if s.failures else 0
+    s.flat_lines = flat_check(s)
+    return s
 
 
-def report(s: Soak, args: argparse.Namespace, elapsed_s: float, flat_lines: list[str]) -> None:
+def report(s: Soak, args: argparse.Namespace) -> None:
+    elapsed_s = s.elapsed_s
     print(f"chaos soak: {args.cycles} cycles in {elapsed_s:.0f} s through `handeye-pick run`, "
           f"seed {args.seed}, fault rate {args.fault_rate} (simulated controller at {args.host}, "
           "instant motion)")
@@ -646,7 +677,7 @@ def report(s: Soak, args: argparse.Namespace, elapsed_s: float, flat_lines: list
     print(f"  figures per run process, early (after {WARMUP_CYCLES} placed cycles) -> last; flat "
           f"= RSS grew at most {RSS_GROWTH_LIMIT_KIB // 1024} MiB, descriptors and threads did "
           f"not grow, at most one ur_rtde child (judged from {FLAT_MIN_CYCLES} placed cycles):")
-    for line in flat_lines:
+    for line in s.flat_lines:
         print(line)
     print(f"  result: {'FAIL' if s.failures else 'PASS'} ({len(s.failures)} broken)")
 

@@ -8,6 +8,7 @@ Target and actual: `q` is the target (the trajectory the controller commands), `
 encoders report. Without `tracking` they are the same array. With it the actual joints follow the
 target TRACKING_LAG_CYCLES control cycles late and carry Gaussian measurement noise of
 JOINT_NOISE_RAD (standard deviation), see README.md for the magnitudes and their sources.
+The fault `jitter:SECONDS` shakes the actual joints for a while (`Arm.jitter`).
 
 moveL moves the TCP on a straight line (orientation by slerp) with a trapezoidal profile over the
 translation (over the rotation angle, in rad, for a pure rotation), joints through IK nearest the
@@ -43,6 +44,13 @@ JOINT_NOISE_RAD = 1e-5
 0.01 mm at the TCP of an 0.85 m arm, a third of the UR5e's published +-0.03 mm repeatability)."""
 STEADY_CYCLES = 2
 """is_steady(): the target has not moved for this many cycles and the actual joints caught up."""
+JITTER_RAD = 0.005
+"""While jittering, the actual base joint stands this far off the target (about 2.5 mm at the
+flange of a UR5e at its home pose)."""
+JITTER_SPEED_RPS = 0.05
+"""While jittering, the actual base joint's speed on every cycle but the turning points."""
+JITTER_PERIOD_CYCLES = 25
+"""While jittering, one cycle in this many is a turning point: the actual speeds read zero."""
 
 
 class UnreachableError(Exception):
@@ -191,6 +199,7 @@ class Arm:
         self._tracking = None if tracking_seed is None else Tracking(self.q, tracking_seed)
         self._servo_q = self.q  # where the joints are, noise-free (lags the target with tracking)
         self._still_cycles = STEADY_CYCLES
+        self._jitter_until_s: float | None = None  # controller time the jitter ends
         self.actual_q = self.q
         self.actual_qd = self.qd
         self._update_poses()
@@ -208,8 +217,9 @@ class Arm:
         self.tcp_pose = kin.matrix_to_pose(self.T_base_tcp)
 
     def _update_actual(self) -> None:
-        """Actual poses and elbow from the measured joints (the target's without tracking)."""
-        if self._tracking is None:
+        """Actual poses and elbow from the measured joints (the target's when they are the
+        target's joints, i.e. without tracking or jitter)."""
+        if self.actual_q is self.q:
             self.actual_flange_pose = self.flange_pose
             self.actual_tcp_pose = self.tcp_pose
         else:
@@ -245,7 +255,16 @@ class Arm:
         """URScript is_steady(): fully at rest, i.e. no motion, the target has not moved for
         STEADY_CYCLES cycles and the actual joints have caught up with it."""
         return (self.motion is None and self._still_cycles >= STEADY_CYCLES
-                and np.array_equal(self._servo_q, self.q))
+                and np.array_equal(self._servo_q, self.q) and self._jitter_until_s is None)
+
+    def jitter(self, seconds: float) -> None:
+        """Fault `jitter:SECONDS`: for SECONDS of controller time from now the measured joints
+        shake about where the joints really are. The base joint reads JITTER_RAD off and moving
+        at JITTER_SPEED_RPS, except on one cycle in JITTER_PERIOD_CYCLES (a swing's turning
+        point) where every actual speed reads zero; never two such cycles in a row, so only a
+        reader that wants consecutive still samples waits the jitter out. The target, and with
+        it every motion, is untouched."""
+        self._jitter_until_s = self.now_s + seconds
 
     # --- motions ---------------------------------------------------------------------------
 
@@ -377,6 +396,7 @@ class Arm:
             self._still_cycles = 0 if self.motion is not None or not np.array_equal(
                 self.q, q_before) else self._still_cycles + 1
             self._track(dt_s)
+            self._shake()
         return motion
 
     def _advance_motion(self, motion: Motion, dt_s: float) -> None:
@@ -434,6 +454,25 @@ class Arm:
         self._update_actual()
         if dt_s > 0:
             self.elbow_velocity = (self.elbow_position - elbow_before) / dt_s
+
+    def _shake(self) -> None:
+        """This cycle's measured joints while jittering (see `jitter`); back to the real ones
+        once it is over."""
+        if self._jitter_until_s is None:
+            return
+        if self.now_s >= self._jitter_until_s:
+            self._jitter_until_s = None
+            if self._tracking is None:  # idle cycles recompute nothing: restore here
+                self.actual_q, self.actual_qd = self.q, self.qd
+            self._update_actual()
+            return
+        turning = round(self.now_s / self.cycle_s) % JITTER_PERIOD_CYCLES == 0
+        self.actual_q = self._servo_q.copy()
+        self.actual_q[0] += JITTER_RAD
+        self.actual_qd = np.zeros(6)
+        if not turning:
+            self.actual_qd[0] = JITTER_SPEED_RPS
+        self._update_actual()
 
     def _q_along(self, motion: Motion, s: float) -> Vector:
         if motion.path is not None:

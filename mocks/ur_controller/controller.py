@@ -397,6 +397,8 @@ class Controller:
             self.gripper.silent = True
         elif fault.name == "gripper-drop":
             self.gripper.drop_part()
+        elif fault.name == "jitter":
+            self.arm.jitter(fault.seconds or 0.0)
         elif fault.name == "slow":
             self._slow_s = fault.seconds or 0.0
             if self._script is not None:

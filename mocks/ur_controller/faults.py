@@ -1,7 +1,8 @@
 """Fault specs: `FAULT@WHEN` as `--inject` and `SimulatedController.inject` take them.
 
 FAULT is one of protective-stop, emergency-stop, safeguard-stop, drop-connection, stall:SECONDS,
-stop-program, remote-control-off, refuse-start, refuse-move, slow:SECONDS, and for the simulated
+stop-program, remote-control-off, refuse-start, refuse-move, slow:SECONDS, jitter:SECONDS (the
+measured joints shake, arm.py's `Arm.jitter`), and for the simulated
 Robotiq gripper gripper-fault:CODE (FLT 1..255), gripper-silent, gripper-drop. WHEN is `now`
 (the default when `@WHEN` is left out) or `move:K:FRACTION`: during the K-th motion command
 (counted from 1), once FRACTION (0..1) of that motion's duration has elapsed.
@@ -23,13 +24,13 @@ PLAIN_FAULTS = (
     "gripper-silent",
     "gripper-drop",
 )
-TIMED_FAULTS = ("stall", "slow")  # take `:SECONDS`
+TIMED_FAULTS = ("stall", "slow", "jitter")  # take `:SECONDS`
 CODE_FAULTS = ("gripper-fault",)  # take `:CODE`, 1..255
 
 
 @dataclass(frozen=True)
 class FaultSpec:
-    """One parsed fault. `seconds` only for stall/slow, `code` only for gripper-fault;
+    """One parsed fault. `seconds` only for stall/slow/jitter, `code` only for gripper-fault;
     `move_index` None means now."""
 
     name: str
@@ -60,7 +61,7 @@ def parse_fault(spec: str) -> FaultSpec:
     elif name not in PLAIN_FAULTS or argument:
         raise ValueError(
             f"fault {spec!r}: expected one of {', '.join(PLAIN_FAULTS)}, stall:SECONDS, "
-            f"slow:SECONDS or gripper-fault:CODE, got {fault!r}"
+            f"slow:SECONDS, jitter:SECONDS or gripper-fault:CODE, got {fault!r}"
         )
     if when in ("", "now"):
         return FaultSpec(name, seconds, code=code)

@@ -6,6 +6,7 @@ confirmation, missed and dropped parts, gripper faults, and the payload the cont
 from __future__ import annotations
 
 import json
+import socket
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -218,7 +219,7 @@ def test_gripper_fault_or_silence_ends_in_a_clear_error(
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True, part_width_mm=PART_MM)
     config = robotiq_config(tmp_path, ctl.host)
     with Cell(config) as cell:
-        ctl.inject(fault)
+        ctl.inject(f"{fault}@move:2:0.5")  # on the way down: the fingers were ready before
         with pytest.raises(GripperFault, match=message):
             cell.pick(load_detection(DEMO / "detection.yaml"))
         assert cell.halted is not None
@@ -269,3 +270,51 @@ def test_the_run_loop_answers_missed_and_stays_ready(
         assert "closed on nothing" in str(reply["error"])
         status = runner.handle('{"id": "3", "op": "status"}')
         assert (status["ready"], status["halted"]) == (True, False), status
+
+
+def test_a_pick_with_the_fingers_left_closed_by_a_drop_is_refused_until_they_are_opened(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    """Found by the chaos soak: after a dropped part and a resume, the next pick came down on
+    the part with the fingers still closed (the simulator then said ``missed``; a real cell
+    crashes the fingers into the part). Guards the ``ready_to_grasp`` refusal in
+    ``Cell._prepare_pick`` (cell/session.py), before the plan record and any motion."""
+    ctl = sim_controller(
+        tcp_offset=TCP_OFFSET,
+        instant=True,
+        part_width_mm=PART_MM,
+        inject=("gripper-drop@move:3:0.5",),
+    )
+    T_cam_obj_mm = load_detection(DEMO / "detection.yaml").T_cam_obj[:3, 3] * 1000.0
+    with Cell(robotiq_config(tmp_path, ctl.host)) as cell:
+        runner = Runner(cell)
+        captured = runner.handle('{"id": "c", "op": "capture"}')
+
+        def pick_once(rid: str) -> Any:
+            request = {
+                "id": rid,
+                "op": "pick",
+                "capture_id": captured["capture_id"],
+                "candidates": [{"position_mm": T_cam_obj_mm.tolist()}],
+            }
+            return runner.handle(json.dumps(request))
+
+        assert pick_once("1")["status"] == "dropped"
+        ctl.set_part(PART_MM)  # the operator puts the part back and resumes
+        assert runner.handle('{"id": "r", "op": "resume"}')["status"] == "ready"
+        motions = len(ctl.motions)
+        refused = pick_once("2")
+        assert refused["status"] == "refused", refused
+        assert "fingers are 0.0 mm apart" in str(refused["error"])
+        assert len(ctl.motions) == motions  # no approach
+        assert cell.halted is None
+        _robotiq(ctl.host, "SET POS 0 GTO 1")  # opened on the pendant
+        picked = pick_once("3")
+        assert picked["status"] == "picked", picked
+
+
+def _robotiq(host: str, request: str) -> str:
+    """One request on the simulated Robotiq's socket, as the pendant's URCap sends it."""
+    with socket.create_connection((host, 63352), timeout=2.0) as sock:
+        sock.sendall(request.encode() + b"\n")
+        return sock.makefile("r").readline().strip()

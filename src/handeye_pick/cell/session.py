@@ -612,6 +612,12 @@ class Cell:
             on_plan=pick.on_plan,
         )
         pick.chosen = chosen
+        if self._gripper is not None and self._holding is None and pick.touch is None:
+            # Fingers left closed (a dropped part) would come down on the part: found by the
+            # chaos soak, where the next pick after a drop and a resume "missed".
+            not_ready = self._gripper.ready_to_grasp()
+            if not_ready is not None:
+                raise SafetyRefusal(not_ready)
         if pick.refused:
             outcome["refused"] = [asdict(r) for r in pick.refused]
         pick.place_index = self._place_index if _has_place(chosen.steps) else None

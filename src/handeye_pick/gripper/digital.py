@@ -50,6 +50,11 @@ class DigitalOutputGripper:
             )
         return True
 
+    def ready_to_grasp(self) -> str | None:
+        """Always ready: an output cannot be read back here, and a feedback input senses the
+        part, not whether the gripper is open."""
+        return None
+
     def state(self) -> GraspState:
         feedback = self._config.confirm_input
         if feedback is None:

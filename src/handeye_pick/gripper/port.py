@@ -35,6 +35,11 @@ class Gripper(Protocol):
         still held."""
         ...
 
+    def ready_to_grasp(self) -> str | None:
+        """None when the gripper may come down over a part (open, as far as it can sense);
+        otherwise why not, in one line. Moves nothing."""
+        ...
+
     def state(self) -> GraspState:
         """The grasp as sensed now, moving nothing (cheap enough to poll during a move)."""
         ...

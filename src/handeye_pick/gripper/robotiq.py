@@ -111,6 +111,21 @@ class Robotiq2F:
             )
         return True
 
+    def ready_to_grasp(self) -> str | None:
+        """The fingers must be wider apart than the widest part expected: fingers left closed
+        (a part slipped out of them, or they were closed by hand) would come down on the
+        part."""
+        self._check_fault()
+        width_mm = self._width_mm(self._get("POS"))
+        widest_mm = self._config.expected_width_mm[1]
+        if width_mm > widest_mm:
+            return None
+        return (
+            f"{self._where}: the fingers are {width_mm:.1f} mm apart, not wider than the "
+            f"{widest_mm:g} mm part, so the grasp would come down on it: open the gripper "
+            "(pendant), then pick again"
+        )
+
     def state(self) -> GraspState:
         """``CONFIRMED`` while the fingers hold a part (OBJ 2), else ``MISSED``; a fault raises."""
         self._check_fault()
