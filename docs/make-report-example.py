@@ -25,6 +25,8 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 
+from benchmarks.cycle import CELL_YAML as CYCLE_CELL  # noqa: E402
+from benchmarks.cycle import OBJECT_BASE_M, TCP_OFFSET  # noqa: E402
 from handeye_pick import Cell, audit  # noqa: E402
 from handeye_pick.config.load import load_config  # noqa: E402
 from handeye_pick.detection import detection_from_point_mm  # noqa: E402
@@ -40,29 +42,12 @@ HOST = "127.0.0.249"
 PICTURE = ROOT / "docs" / "report-example.png"
 SHIFT_START = datetime(2026, 12, 2, 6, 0, tzinfo=timezone.utc)
 SHIFT_S = float(sys.argv[1]) * 3600.0 if len(sys.argv) > 1 else 8 * 3600.0
-OBJECT_BASE_M = np.array([-0.52, -0.10, 0.06])
 FAR_AWAY_M = np.array([-0.52, -0.10, -0.50])  # below the table: every check refuses it
 FAULT_HOURS = (1.3, 2.05, 4.6, 6.2, 6.4)  # protective stops, hours into the shift
 STOOD_MIN = (4.0, 11.0, 6.0, 25.0, 3.0)  # how long the operator takes for each
 EMPTY_BIN_EVERY = 37
-CELL_YAML = f"""
-robot:
-  host: {HOST}
-  tcp_offset: [0, 0, 0.12, 0, 0, 0]
-  watchdog_s: 0.5
-hand_eye:
-  mode: eye-in-hand
-  file: {ROOT / "config" / "demo" / "hand_eye.yaml"}
-  units: mm
-grasp: {{approach_mm: 100, retreat_mm: 100}}
-motion: {{speed_mps: 0.25, accel_mps2: 1.2, grasp_speed_mps: 0.05}}
-workspace: {{min_mm: [-800, -800, 20], max_mm: [800, 800, 700], max_tilt_deg: 30}}
-audit: {{file: shift.jsonl}}
-place:
-  poses: [[-0.30, 0.35, 0.15, 3.14159265, 0, 0]]
-  approach_mm: 80
-  retreat_mm: 80
-"""
+# The cell of benchmarks/cycle.py, on this script's own address and audit file.
+CELL_YAML = CYCLE_CELL.replace("127.0.0.250", HOST).replace("picks.jsonl", "shift.jsonl")
 
 
 class ShiftClock:
@@ -97,7 +82,7 @@ def main() -> None:
     with (
         tempfile.TemporaryDirectory() as folder,
         SimulatedController(
-            host=HOST, tcp_offset=(0.0, 0.0, 0.12, 0.0, 0.0, 0.0), instant=True
+            host=HOST, tcp_offset=TCP_OFFSET, instant=True
         ) as ctl,
     ):
         config_path = Path(folder) / "cell.yaml"
