@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import os
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -24,7 +25,19 @@ settings.load_profile("shared-machine")
 # the watchdog itself sets 0.2 s.
 TEST_WATCHDOG_S = 1.0
 
-_HOSTS: Iterator[str] = (f"127.0.0.{n}" for n in itertools.cycle(range(2, 255)))
+
+
+def _worker_hosts() -> range:
+    """This process's share of 127.0.0.2-254: pytest-xdist's workers (PYTEST_XDIST_WORKER
+    gwN of PYTEST_XDIST_WORKER_COUNT) each cycle through their own addresses."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "gw0")
+    count = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+    index = int(worker.removeprefix("gw")) if worker.startswith("gw") else 0
+    share = 253 // max(count, 1)
+    return range(2 + index * share, 2 + (index + 1) * share)
+
+
+_HOSTS: Iterator[str] = (f"127.0.0.{n}" for n in itertools.cycle(_worker_hosts()))
 
 
 def next_loopback_host() -> str:

@@ -56,7 +56,7 @@ def _capture_flange() -> np.ndarray:
 def test_the_config_loads_and_its_hand_eye_file_is_the_true_camera_mount() -> None:
     config = load_config(CONFIG)
     calibration = load_hand_eye(config.hand_eye.file, config.hand_eye.mode, config.hand_eye.units)
-    camera = loop.build_camera(loop.build_scene(), loop.read_cell(CONFIG).hand_eye_file)
+    camera = loop.build_camera(loop.build_scene(), loop.read_cell(CONFIG))
     np.testing.assert_allclose(calibration.T_cal, camera.T_mount_cam, atol=1e-12)
     assert config.robot.host == loop.read_cell(CONFIG).host
 
@@ -88,7 +88,7 @@ def test_five_cycles_find_every_box_and_put_it_out_of_view() -> None:
     calibration = load_hand_eye(config.hand_eye.file, config.hand_eye.mode, config.hand_eye.units)
     lo, hi = np.array(config.workspace.min_mm), np.array(config.workspace.max_mm)
     scene = loop.build_scene()
-    camera = loop.build_camera(scene, loop.read_cell(CONFIG).hand_eye_file)
+    camera = loop.build_camera(scene, loop.read_cell(CONFIG))
     T_base_flange = _capture_flange()
     T_base_cam = calibration.T_base_cam(T_base_flange)
     R_tool = (T_base_flange @ _T_flange_tcp())[:3, :3]
@@ -132,7 +132,7 @@ def test_boxes_are_found_within_half_a_millimetre_wherever_they_stand(
     for (name, box), (dx, dy), yaw in zip(scene.boxes.items(), shifts, yaws, strict=True):
         x, y = box.T_base_box[0, 3] + dx, box.T_base_box[1, 3] + dy
         scene.move_box(name, scene.on_table(x, y, math.radians(yaw)))
-    camera = loop.build_camera(scene, loop.read_cell(CONFIG).hand_eye_file)
+    camera = loop.build_camera(scene, loop.read_cell(CONFIG))
     T_base_cam = camera.T_base_cam(_capture_flange())
     found = loop.find_boxes(camera.capture(_capture_flange()))
     matched = [loop.nearest_box(scene, T_base_cam[:3, :3] @ (p / 1000.0) + T_base_cam[:3, 3])

@@ -66,6 +66,14 @@ def changes(values: list[int]) -> list[int]:
     return [v for i, v in enumerate(values) if i == 0 or v != values[i - 1]]
 
 
+def assert_progress_runs_through(values: list[int], last: int) -> None:
+    """The progress word read while a path ran: 0 first, then rising to ``last``. A poll the
+    shared machine delays may miss a short middle waypoint, never the order."""
+    seen = changes(values)
+    assert (seen[0], seen[-1]) == (0, last), seen
+    assert seen == sorted(seen), seen
+
+
 def test_a_blended_corner_keeps_moving_within_its_radius(sim_controller: Factory) -> None:
     ctl = sim_controller()
     c = rtde_control.RTDEControlInterface(ctl.host)
@@ -89,7 +97,7 @@ def test_a_blended_corner_keeps_moving_within_its_radius(sim_controller: Factory
                            for a, b in itertools.pairwise(points))
             in_ball = min(np.linalg.norm(position - q) for q in (points[1], points[2]))
             assert off_line < 1e-6 or in_ball <= RADIUS_M + 1e-6
-        assert changes([s[2] for s in samples if s[2] >= 0]) == [0, 1, 2]
+        assert_progress_runs_through([s[2] for s in samples if s[2] >= 0], 2)
         np.testing.assert_allclose(r.getActualTCPPose()[:3], points[3], atol=1e-6)
         command = [e for e in ctl.commands if e["kind"] == "movePath"][-1]
         assert command["radii"] == [RADIUS_M, RADIUS_M, 0.0]
@@ -102,7 +110,7 @@ def test_a_blended_corner_keeps_moving_within_its_radius(sim_controller: Factory
         assert motion["start_t"] < reached[0] < reached[1] < reached[2] == motion["end_t"]
         # The re-uploaded script is the control script plus the path: single moves still work.
         assert c.moveL(start, 0.25, 1.2)
-        np.testing.assert_allclose(r.getActualTCPPose(), start, atol=1e-9)
+        wait_for(lambda: np.allclose(r.getActualTCPPose(), start, atol=1e-9))
         assert ctl.motions[-1]["kind"] == "moveL"
     finally:
         r.disconnect()
@@ -193,7 +201,7 @@ def test_a_movej_path_blends_in_joint_space(sim_controller: Factory) -> None:
             q = np.array(r.getActualQ())
             joint_speeds.append((q, float(np.linalg.norm(r.getActualQd()))))
             time.sleep(0.001)
-        assert changes([p for p in progress if p >= 0]) == [0, 1, 2]
+        assert_progress_runs_through([p for p in progress if p >= 0], 2)
         np.testing.assert_allclose(r.getActualQ(), q3, atol=1e-9)
         gaps = [float(np.max(np.abs(q - np.array(q1)))) for q, _ in joint_speeds]
         near = [speed for gap, (_, speed) in zip(gaps, joint_speeds, strict=True) if gap < 0.1]
