@@ -89,9 +89,11 @@ class Contained:
             return
         try:
             method(observer)
-        except Exception as exc:  # noqa: BLE001 - an observer must never end a cycle
+        except Exception as exc:  # an observer must never end a cycle
             self._observer = None
-            log.warning("%s stopped (the cell goes on): %s: %s", self._name, type(exc).__name__, exc)
+            log.warning(
+                "%s stopped (the cell goes on): %s: %s", self._name, type(exc).__name__, exc
+            )
 
     def on_sample(self, tcp_pose: Sequence[float], controller_time_s: float) -> None:
         self.call(lambda o: o.on_sample(tcp_pose, controller_time_s))
