@@ -91,6 +91,7 @@ class Publisher:
         self._audit = foxglove.Channel("/cell/audit", message_encoding="json", context=context)
         self._points = PointCloudChannel("/camera/points", context=context)
         self._server = start_live(context, *live) if live is not None else None
+        self.files: McapFiles | None = None
         try:
             self.files = McapFiles(record, context, self._latched) if record is not None else None
         except BaseException:

@@ -87,11 +87,14 @@ class _File(io.RawIOBase):
             raise
 
     def close(self) -> None:
+        if self.closed:
+            return
         try:
+            super().close()  # flushes first
             self._file.close()
         except OSError as exc:
             self.error = self.error or exc
-        super().close()
+            self._file.close()
 
 
 class McapFiles:
@@ -129,8 +132,14 @@ class McapFiles:
             self._file = _File(path)
         except OSError as exc:
             raise InputError(f"--record {path}: cannot create ({exc.strerror or exc})") from None
+        # Without seeking, a chunk is written whole once it is complete; with it, a chunk's
+        # length is written as a placeholder first and patched at its end, so a killed process
+        # would leave a chunk no reader can step over.
         options = MCAPWriteOptions(
-            compression=MCAPCompression.Zstd, chunk_size=CHUNK_BYTES, compression_threads=0
+            compression=MCAPCompression.Zstd,
+            chunk_size=CHUNK_BYTES,
+            compression_threads=0,
+            disable_seeking=True,
         )
         self._writer = foxglove.open_mcap(self._file, context=self._context, writer_options=options)
         self._hour = now.strftime("%Y%m%d%H")
