@@ -6,6 +6,7 @@ chunk, and the live view's WebSocket stream decoded (docs/recording.md, "Live vi
 from __future__ import annotations
 
 import asyncio
+import base64
 import json
 import signal
 import struct
@@ -208,9 +209,12 @@ async def _watch_live(host: str, port: int, frames_wanted: int, run: Any) -> lis
             if message["op"] == "advertise":
                 channels.update({c["topic"]: c for c in message["channels"]})
         tf = channels["/tf"]
-        import base64
-
-        schema = Schema(0, tf["schemaName"], tf["schemaEncoding"], base64.b64decode(tf["schema"]))
+        schema = Schema(
+            id=0,
+            name=tf["schemaName"],
+            encoding=tf["schemaEncoding"],
+            data=base64.b64decode(tf["schema"]),
+        )
         decode = DecoderFactory().decoder_for("protobuf", schema)
         assert decode is not None
         await socket.send(

@@ -56,6 +56,7 @@ MOVED_M = 1e-6
 """A pose that changed by less than this (m, and about this in rad) counts as unchanged."""
 DEFAULT_CLOUD_POINTS = 50_000
 """Most points of a recorded cloud (``--cloud-points``): thinned evenly beyond that."""
+_OBJECT = {"type": "object"}
 CLOUD_QUEUE = 2
 """Clouds waiting to be read; one named while these wait is skipped, with a warning."""
 
@@ -81,14 +82,16 @@ class Publisher:
         self._lock = threading.Lock()
         self._flange: tuple[Transform, float, int] | None = None  # pose, controller s, wall ns
         self._capture_frames: list[tuple[str, str, Transform]] = []
-        context = foxglove.Context()
+        # Held for the session: once a context is dropped, its channels are closed.
+        self._context = context = foxglove.Context()
         self._tf = FrameTransformsChannel("/tf", context=context)
         self._candidates = SceneUpdateChannel("/cell/candidates", context=context)
         self._plan = SceneUpdateChannel("/cell/plan", context=context)
         self._reached = SceneUpdateChannel("/cell/reached", context=context)
         self._scene = SceneUpdateChannel("/cell/scene", context=context)
-        self._status = foxglove.Channel("/cell/status", message_encoding="json", context=context)
-        self._audit = foxglove.Channel("/cell/audit", message_encoding="json", context=context)
+        # A JSON channel needs a schema for the live view to advertise it: any object.
+        self._status = foxglove.Channel("/cell/status", schema=_OBJECT, context=context)
+        self._audit = foxglove.Channel("/cell/audit", schema=_OBJECT, context=context)
         self._points = PointCloudChannel("/camera/points", context=context)
         self._server = start_live(context, *live) if live is not None else None
         self.files: McapFiles | None = None
