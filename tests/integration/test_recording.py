@@ -155,7 +155,8 @@ def test_a_recorded_cycle_reads_back_as_the_cell_saw_it(
     assert (box.size.x, box.size.y, box.size.z) == pytest.approx((1.6, 1.6, 0.68))
     # /cell/status: running, then idle at the end.
     states = [m["state"] for t, _, m in messages if t == "/cell/status"]
-    assert "running" in states and states[-1] == "idle"
+    assert "running" in states
+    assert states[-1] == "idle"
     # /camera/points: the cloud thinned to 1000 points, in the capture's camera frame, in m.
     (cloud,) = [m for t, _, m in messages if t == "/camera/points"]
     assert cloud.frame_id == "capture_cam"
