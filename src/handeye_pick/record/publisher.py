@@ -74,6 +74,9 @@ class Publisher:
         live: tuple[str, int] | None = None,
         cloud_points: int = DEFAULT_CLOUD_POINTS,
     ) -> None:
+        # The SDK logs a line for every message it cannot write; the recorder's one warning
+        # says it once (recorder.McapFiles).
+        logging.getLogger("foxglove").setLevel(logging.ERROR)
         self._config = config
         self._calibration = calibration
         self._cloud_points = cloud_points

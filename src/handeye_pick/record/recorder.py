@@ -11,7 +11,6 @@ ends the recording with one warning; the cell goes on.
 
 from __future__ import annotations
 
-import io
 import logging
 import threading
 import time
@@ -48,53 +47,21 @@ def is_folder(path: Path) -> bool:
     return path.is_dir() or str(path).endswith("/")
 
 
-class _File(io.RawIOBase):
-    """The file the SDK writes to: counts the bytes and remembers the first write error."""
+class _Written:
+    """One file the SDK writes (it owns the file: a Python file object under the SDK would make
+    its writer need the interpreter while it holds its own lock, and threads deadlock); a write
+    error shows as a ``RuntimeError`` at the next flush or close."""
 
     def __init__(self, path: Path) -> None:
-        super().__init__()
         self.path = path
-        self._file = path.open("xb")
-        self.written = 0
         self.error: OSError | None = None
 
-    def writable(self) -> bool:
-        return True
-
-    def seekable(self) -> bool:
-        return True
-
-    def write(self, data: bytes | bytearray | memoryview) -> int:  # type: ignore[override]
+    @property
+    def written(self) -> int:
         try:
-            n = self._file.write(data)
-        except OSError as exc:
-            self.error = self.error or exc
-            raise
-        self.written += n
-        return n
-
-    def seek(self, offset: int, whence: int = io.SEEK_SET) -> int:
-        return self._file.seek(offset, whence)
-
-    def tell(self) -> int:
-        return self._file.tell()
-
-    def flush(self) -> None:
-        try:
-            self._file.flush()
-        except OSError as exc:
-            self.error = self.error or exc
-            raise
-
-    def close(self) -> None:
-        if self.closed:
-            return
-        try:
-            super().close()  # flushes first
-            self._file.close()
-        except OSError as exc:
-            self.error = self.error or exc
-            self._file.close()
+            return self.path.stat().st_size
+        except OSError:
+            return 0
 
 
 class McapFiles:
@@ -115,7 +82,7 @@ class McapFiles:
         self._on_new_file = on_new_file
         self._max_file_bytes = max_file_bytes
         self._lock = threading.RLock()
-        self._file: _File | None = None
+        self._file: _Written | None = None
         self._writer: MCAPWriter | None = None
         self._hour = ""
         self.paths: list[Path] = []
@@ -128,10 +95,7 @@ class McapFiles:
     def _open(self) -> None:
         now = datetime.now(timezone.utc)
         path = self._path if not self._folder else self._new_name(now)
-        try:
-            self._file = _File(path)
-        except OSError as exc:
-            raise InputError(f"--record {path}: cannot create ({exc.strerror or exc})") from None
+        self._file = _Written(path)
         # Without seeking, a chunk is written whole once it is complete; with it, a chunk's
         # length is written as a placeholder first and patched at its end, so a killed process
         # would leave a chunk no reader can step over.
@@ -141,7 +105,12 @@ class McapFiles:
             compression_threads=0,
             disable_seeking=True,
         )
-        self._writer = foxglove.open_mcap(self._file, context=self._context, writer_options=options)
+        try:  # check_record_path (and _new_name) made sure no file of the name exists
+            self._writer = foxglove.open_mcap(
+                path, allow_overwrite=True, context=self._context, writer_options=options
+            )
+        except RuntimeError as exc:  # the SDK's word for a file it cannot create
+            raise InputError(f"--record {path}: cannot create ({exc})") from None
         self._hour = now.strftime("%Y%m%d%H")
         self.paths.append(path)
         self._on_new_file()
@@ -155,33 +124,29 @@ class McapFiles:
         return path
 
     def check(self) -> None:
-        """After a write: end the recording on a write error, start the next file of a folder
-        when the hour changed or the file is full."""
+        """End the recording if a write failed (it shows at a flush)."""
         file = self._file
-        if file is None:
-            return
-        if file.error is not None:
+        if file is not None and file.error is not None:
             self.close()  # says so, once
-            return
-        if not self._folder:
-            return
-        full = file.written >= self._max_file_bytes
-        if full or time.strftime("%Y%m%d%H", time.gmtime()) != self._hour:
-            with self._lock:
-                if self._file is file:
-                    self.close()
-                    self._open()
 
     def flush(self) -> None:
-        """Finish the current chunk and hand it to the operating system."""
+        """Finish the current chunk and hand it to the operating system; then start the next
+        file of a folder when the hour changed or the file is full."""
         with self._lock:
-            if self._writer is None:
+            if self._writer is None or self._file is None:
                 return
             try:
                 self._writer.flush()
             except RuntimeError as exc:  # the SDK's word for a failed write
                 _note(self._file, exc)
             self.check()
+            file = self._file
+            if file is None or not self._folder:
+                return
+            hour = time.strftime("%Y%m%d%H", time.gmtime())
+            if file.written >= self._max_file_bytes or hour != self._hour:
+                self.close()
+                self._open()
 
     def close(self) -> None:
         """Write the index and close the file; safe to call twice."""
@@ -194,12 +159,11 @@ class McapFiles:
                 writer.close()
             except RuntimeError as exc:
                 _note(file, exc)
-            file.close()
             if file.error is not None:
                 _warn(file.path, file.error)
 
 
-def _note(file: _File | None, exc: RuntimeError) -> None:
+def _note(file: _Written | None, exc: RuntimeError) -> None:
     """Keep the SDK's failure when the file saw none of its own."""
     if file is not None and file.error is None:
         file.error = OSError(str(exc))
