@@ -16,13 +16,14 @@ of its own, never in the cycle.
 from __future__ import annotations
 
 import contextlib
+import functools
 import json
 import logging
 import math
 import queue
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
 from types import TracebackType
@@ -57,6 +58,8 @@ MOVED_M = 1e-6
 DEFAULT_CLOUD_POINTS = 50_000
 """Most points of a recorded cloud (``--cloud-points``): thinned evenly beyond that."""
 _OBJECT = {"type": "object"}
+WORK_QUEUE = 10_000
+"""Messages waiting for the worker thread at most (a minute and a half of frames at 100 Hz)."""
 CLOUD_QUEUE = 2
 """Clouds waiting to be read; one named while these wait is skipped, with a warning."""
 
@@ -83,7 +86,8 @@ class Publisher:
         self._T_tcp_flange = invert(config.robot.T_flange_tcp)
         self._clock = ControllerClock()
         self._lock = threading.Lock()
-        self._flange: tuple[Transform, float, int] | None = None  # pose, controller s, wall ns
+        # The last base -> flange logged: actual_TCP_pose (UR vector), controller s, wall ns.
+        self._flange: tuple[list[float], float, int] | None = None
         self._capture_frames: list[tuple[str, str, Transform]] = []
         # Held for the session: once a context is dropped, its channels are closed.
         self._context = context = foxglove.Context()
@@ -105,7 +109,10 @@ class Publisher:
             raise
         self._closing = threading.Event()
         self._clouds: queue.Queue[tuple[Path, Capture | None] | None] = queue.Queue(CLOUD_QUEUE)
+        self._work: queue.Queue[Callable[[], None] | None] = queue.Queue(WORK_QUEUE)
+        self._behind = False
         self._threads = [
+            threading.Thread(target=self._run_work, name="record-worker", daemon=True),
             threading.Thread(target=self._every_second, name="record-timer", daemon=True),
             threading.Thread(target=self._read_clouds, name="record-clouds", daemon=True),
         ]
@@ -125,24 +132,28 @@ class Publisher:
             since = controller_time_s - last[1]
             if 0.0 <= since < MOVING_PERIOD_S:
                 return
-        T_base_flange = ur_pose_to_matrix(tcp_pose) @ self._T_tcp_flange
-        if last is not None and 0.0 <= since < REST_PERIOD_S and _same(last[0], T_base_flange):
-            return
+            if since < REST_PERIOD_S and _same(last[0], tcp_pose):
+                return
         wall_ns = self._clock.wall_ns(controller_time_s)
-        self._flange = (T_base_flange, controller_time_s, wall_ns)
+        pose = list(tcp_pose)
+        self._flange = (pose, controller_time_s, wall_ns)
+        self._submit(lambda: self._log_flange(pose, wall_ns))
+
+    def _log_flange(self, tcp_pose: list[float], wall_ns: int) -> None:
+        T_base_flange = ur_pose_to_matrix(tcp_pose) @ self._T_tcp_flange
         self._tf.log(ch.frames([ch.frame(ch.BASE, ch.FLANGE, T_base_flange, wall_ns)]))
-        self._check()
 
     def on_capture(self, capture: Capture) -> None:
         if capture.T_base_flange is None:  # eye-to-hand: the camera's frame is fixed
             return
-        T_flange_cam = self._calibration.T_cal
+        frames = [
+            (ch.BASE, ch.CAPTURE_FLANGE, capture.T_base_flange),
+            (ch.CAPTURE_FLANGE, ch.CAPTURE_CAM, self._calibration.T_cal),
+        ]
         with self._lock:
-            self._capture_frames = [
-                (ch.BASE, ch.CAPTURE_FLANGE, capture.T_base_flange),
-                (ch.CAPTURE_FLANGE, ch.CAPTURE_CAM, T_flange_cam),
-            ]
-        self._log_frames(self._capture_frames, _now_ns())
+            self._capture_frames = frames
+        now = _now_ns()
+        self._submit(lambda: self._log_frames(frames, now))
 
     def on_cloud(self, path: Path, capture: Capture | None) -> None:
         try:
@@ -156,26 +167,58 @@ class Publisher:
         chosen: int | None,
         refused: Sequence[CandidateRefusal],
     ) -> None:
-        self._candidates.log(ch.candidates_update(plans, chosen, refused, _now_ns()))
-        self._check()
+        now, kept = _now_ns(), (list(plans), list(refused))
+        self._submit(
+            lambda: self._candidates.log(ch.candidates_update(kept[0], chosen, kept[1], now))
+        )
 
     def on_plan(self, steps: Sequence[Step], T_base_tcp_start: Transform | None) -> None:
-        self._plan.log(ch.plan_update(steps, T_base_tcp_start, _now_ns()))
-        self._check()
+        now, kept = _now_ns(), list(steps)
+        self._submit(lambda: self._plan.log(ch.plan_update(kept, T_base_tcp_start, now)))
 
     def on_reached(self, name: str, T_target: Transform | None, T_reached: Transform) -> None:
-        self._reached.log(ch.reached_update(name, T_target, T_reached, _now_ns()))
-        self._check()
+        now = _now_ns()
+        self._submit(lambda: self._reached.log(ch.reached_update(name, T_target, T_reached, now)))
 
     def on_status(self, status: dict[str, object]) -> None:
         stamped = {"time": datetime.now(timezone.utc).isoformat(timespec="microseconds")}
-        self._status.log(json.dumps({**stamped, **status}, default=str).encode())
-        self._check()
+        line = json.dumps({**stamped, **status}, default=str).encode()
+        self._submit(lambda: self._status.log(line))
 
     def on_audit(self, line: str) -> None:
+        self._submit(lambda: self._logged_audit(line))
+
+    def _logged_audit(self, line: str) -> None:
         self._audit.log(line.encode())
         if self.files is not None:
             self.files.flush()  # a chunk ends at every record: a killed process loses little
+
+    # --- the worker ----------------------------------------------------------------------------
+
+    def _submit(self, work: Callable[[], None]) -> None:
+        """Hand ``work`` to the worker thread: the cycle never waits for a message to be built
+        or written. A worker that has fallen ``WORK_QUEUE`` items behind drops what comes, and
+        says so once."""
+        try:
+            self._work.put_nowait(work)
+        except queue.Full:
+            if not self._behind:
+                self._behind = True
+                log.warning("recording: %d messages wait: later ones are dropped", WORK_QUEUE)
+
+    def _run_work(self) -> None:
+        """The worker thread: build and log, in order; a failure ends only the recording."""
+        while True:
+            work = self._work.get()
+            if work is None:
+                return
+            try:
+                work()
+                self._check()
+            except Exception as exc:  # the cell goes on without its recording
+                log.warning("recording stopped (the cell goes on): %s: %s", type(exc).__name__, exc)
+                self._close_sinks()
+                return
 
     # --- the rest ------------------------------------------------------------------------------
 
@@ -205,14 +248,13 @@ class Publisher:
         """The timer thread (see the module's docstring); a failure ends only the recording."""
         try:
             while not self._closing.wait(REST_PERIOD_S):
-                self._latched()
+                self._submit(self._latched)
                 last = self._flange
                 now = _now_ns()
                 if last is not None and now - last[2] >= REST_PERIOD_S * 1e9:
-                    frame = ch.frame(ch.BASE, ch.FLANGE, last[0], now)
-                    self._tf.log(ch.frames([frame]))
+                    self._submit(functools.partial(self._log_flange, last[0], now))
                 if self.files is not None:
-                    self.files.flush()
+                    self._submit(self.files.flush)
         except Exception as exc:  # the cell goes on without its recording
             log.warning("recording stopped (the cell goes on): %s: %s", type(exc).__name__, exc)
             self._close_sinks()
@@ -242,8 +284,10 @@ class Publisher:
         for thread in self._threads:
             if thread.name == "record-clouds":
                 _put_end(self._clouds)
+            if thread.name == "record-worker":
+                self._work.put(None)  # after everything submitted before: nothing is lost
             if thread is not threading.current_thread():
-                thread.join(timeout=5.0)
+                thread.join(timeout=10.0)
         self._close_sinks()
 
     def _close_sinks(self) -> None:
@@ -285,8 +329,9 @@ def thinned_cloud_mm(path: Path, max_points: int) -> np.ndarray:
     return points[:max_points]
 
 
-def _same(T_a: Transform, T_b: Transform) -> bool:
-    return float(np.abs(T_a[:3, :] - T_b[:3, :]).max()) < MOVED_M
+def _same(pose_a: Sequence[float], pose_b: Sequence[float]) -> bool:
+    """Two UR pose vectors alike to ``MOVED_M`` (m, and rad for the rotation vector)."""
+    return all(abs(a - b) < MOVED_M for a, b in zip(pose_a, pose_b, strict=True))
 
 
 def _now_ns() -> int:
