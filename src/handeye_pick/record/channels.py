@@ -41,7 +41,7 @@ from numpy.typing import NDArray
 from handeye_pick.cell.plan import CandidateRefusal, PickPlan, step_error
 from handeye_pick.cell.steps import Move, Step
 from handeye_pick.config.schema import CellConfig
-from handeye_pick.geometry import Transform, rotation_from_quaternion, rotation_to_quaternion
+from handeye_pick.geometry import Transform, rotation_from_quaternion
 
 BASE, FLANGE, TCP, CAM = "base", "flange", "tcp", "cam"
 CAPTURE_FLANGE, CAPTURE_CAM = "capture_flange", "capture_cam"
@@ -84,12 +84,24 @@ def pose_of(T: Transform) -> Pose:
 
 
 def _parts(T: Transform) -> tuple[Vector3, Quaternion]:
-    x, y, z, w = rotation_to_quaternion(T[:3, :3], "xyzw")
-    p = T[:3, 3]
-    return (
-        Vector3(x=float(p[0]), y=float(p[1]), z=float(p[2])),
-        Quaternion(x=float(x), y=float(y), z=float(z), w=float(w)),
-    )
+    """Translation and unit quaternion of a 4x4, in plain floats: a recording builds hundreds
+    of these per cycle, and numpy's per-call cost on 3x3 arrays is what dominates."""
+    (r00, r01, r02, px), (r10, r11, r12, py), (r20, r21, r22, pz) = T[:3].tolist()
+    # Shepperd's method: divide by the largest of the four candidates (stable everywhere).
+    trace = r00 + r11 + r22
+    if trace >= max(r00, r11, r22):
+        w = math.sqrt(max(0.0, 1.0 + trace)) / 2.0
+        x, y, z = (r21 - r12) / (4 * w), (r02 - r20) / (4 * w), (r10 - r01) / (4 * w)
+    elif r00 >= r11 and r00 >= r22:
+        x = math.sqrt(max(0.0, 1.0 + r00 - r11 - r22)) / 2.0
+        w, y, z = (r21 - r12) / (4 * x), (r01 + r10) / (4 * x), (r02 + r20) / (4 * x)
+    elif r11 >= r22:
+        y = math.sqrt(max(0.0, 1.0 - r00 + r11 - r22)) / 2.0
+        w, x, z = (r02 - r20) / (4 * y), (r01 + r10) / (4 * y), (r12 + r21) / (4 * y)
+    else:
+        z = math.sqrt(max(0.0, 1.0 - r00 - r11 + r22)) / 2.0
+        w, x, y = (r10 - r01) / (4 * z), (r02 + r20) / (4 * z), (r12 + r21) / (4 * z)
+    return Vector3(x=px, y=py, z=pz), Quaternion(x=x, y=y, z=z, w=w)
 
 
 def frame(parent: str, child: str, T_parent_child: Transform, time_ns: int) -> FrameTransform:
