@@ -101,11 +101,15 @@ class AuditLog:
         self.path = Path(path)
         self.pick_id = pick_id if pick_id is not None else uuid.uuid4().hex
         self._lock: _Lock | None = None
+        self.on_append: Callable[[str], None] | None = None
+        """Hears each record's JSON line (no newline) once it is on disk; must not raise."""
 
     def next_pick(self) -> AuditLog:
-        """A log for the next pick: same file (and ``open_audit``'s lock), a new ``pick_id``."""
+        """A log for the next pick: same file (and ``open_audit``'s lock and ``on_append``), a
+        new ``pick_id``."""
         sibling = AuditLog(self.path)
         sibling._lock = self._lock
+        sibling.on_append = self.on_append
         return sibling
 
     def close(self) -> None:
@@ -134,14 +138,16 @@ class AuditLog:
             "pick_id": self.pick_id,
             **record,
         }
-        line = json.dumps(_jsonable(stamped, "record"), allow_nan=False) + "\n"
+        line = json.dumps(_jsonable(stamped, "record"), allow_nan=False)
         try:
-            _append_fsynced(self.path, line.encode("utf-8"))
+            _append_fsynced(self.path, (line + "\n").encode("utf-8"))
         except OSError as exc:
             raise AuditError(
                 f"audit: cannot append to {self.path} ({exc.strerror or exc}); "
                 "refusing to go on without a record"
             ) from None
+        if self.on_append is not None:
+            self.on_append(line)
 
 
 def _append_fsynced(path: Path, data: bytes) -> None:

@@ -15,6 +15,9 @@ Requests (camera frame in mm for detections, robot poses as UR vectors in m and 
     {"id": "5", "op": "status"}   {"id": "6", "op": "resume"}   {"id": "7", "op": "quit"}
     {"id": "8", "op": "stop"}
 
+``capture`` and ``pick`` may name the vision program's point cloud of the capture,
+``"cloud": {"file": "PATH.npy"}`` (camera frame, mm), for a recording (``run --record``).
+
 Every reply carries ``id`` and ``ok``; failed ones ``status`` and ``error``. A request may carry
 ``token`` (required when the runner was given one, see ``cli/run.py``).
 
@@ -35,6 +38,7 @@ import logging
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from handeye_pick.cell.captures import Capture
@@ -63,8 +67,8 @@ MAX_CANDIDATES = 100
 """Most candidate detections one pick request may carry."""
 
 _KEYS: dict[str, tuple[str, ...]] = {  # "events": true asks for the request's event lines
-    "capture": ("pose", "events"),
-    "pick": ("capture_id", "candidates", "place", "dry_run", "events"),
+    "capture": ("pose", "events", "cloud"),
+    "pick": ("capture_id", "candidates", "place", "dry_run", "events", "cloud"),
     "place": ("events",),
     "move": ("pose", "events"),
     "status": (),
@@ -92,6 +96,7 @@ class Request:
     place: bool = True
     dry_run: bool = False
     events: bool = False  # write event lines while it runs
+    cloud: Path | None = None  # the vision program's cloud of the capture, for a recording
 
 
 class Runner:
@@ -212,11 +217,17 @@ class Runner:
         cell = self.cell
         rid = None if request.id is None else str(request.id)
         if request.op == "capture":
-            return _capture_reply(cell.capture(request.pose, request_id=rid))
+            capture = cell.capture(request.pose, request_id=rid)
+            if request.cloud is not None:
+                cell.note_cloud(request.cloud, capture)
+            return _capture_reply(capture)
         if request.op == "pick":
+            named = cell.request_capture(request.capture_id)
+            if request.cloud is not None:
+                cell.note_cloud(request.cloud, named)
             result = cell.pick(
                 request.candidates,
-                cell.request_capture(request.capture_id),
+                named,
                 place=request.place,
                 dry_run=request.dry_run,
                 request_id=rid,
@@ -385,7 +396,19 @@ def _validate(data: Mapping[str, Any], request_id: str | int | None) -> Request:
         place=True if place is None else place,
         dry_run=bool(dry_run),
         events=bool(_optional(data, "events", bool)),
+        cloud=_cloud(data),
     )
+
+
+def _cloud(data: Mapping[str, Any]) -> Path | None:
+    """``"cloud": {"file": PATH}``: the capture's point cloud (.npy or .ply, camera frame, mm)
+    for a recording; read only by the recording, never by the cell."""
+    cloud = data.get("cloud")
+    if cloud is None:
+        return None
+    if not isinstance(cloud, dict) or set(cloud) != {"file"} or not isinstance(cloud["file"], str):
+        raise BadRequest('cloud must be {"file": PATH} (a .npy or .ply cloud, camera frame, mm)')
+    return Path(cloud["file"])
 
 
 def _candidate(item: object, request_id: str | int | None, index: int) -> Detection:

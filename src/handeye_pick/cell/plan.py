@@ -223,6 +223,12 @@ class CandidateRefusal:
     reasons: list[str]
     checks: list[CheckResult] = field(default_factory=list)  # every pre-flight check, if run
 
+    @classmethod
+    def of(cls, candidate: int, source: str, refusal: PreflightRefusal) -> CandidateRefusal:
+        """The refusal of one candidate: the checks it failed as its reasons."""
+        failed = [f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed]
+        return cls(candidate, source, failed, refusal.results)
+
 
 class NoFeasibleCandidate(PlanRefused):
     """No candidate passed every pre-flight check; nothing moved. ``refusals`` says why each."""
@@ -289,8 +295,7 @@ def choose(
                 raise PreflightRefusal(plausible)  # nothing asked of the controller
             checks = plausible + check_steps(config, steps, arm, verdicts, T_base_tcp_start)
         except PreflightRefusal as refusal:
-            failed = [f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed]
-            refusals.append(CandidateRefusal(index, detection.source, failed, refusal.results))
+            refusals.append(CandidateRefusal.of(index, detection.source, refusal))
             continue
         return Chosen(index, plan, steps, checks), refusals
     if len(refusals) == 1:  # one detection: its own refusal says it best, every check listed

@@ -150,9 +150,11 @@ def execute(
 @dataclass(frozen=True)
 class SequenceWatch:
     """Who watches a running sequence from outside: ``on_step`` hears each step's name as it
-    starts; ``stop``, once set (from any thread), brakes the arm at the next look."""
+    starts, ``on_reached`` each stop's name, target (None for a moveJ) and reached
+    ``T_base_tcp`` (m); ``stop``, once set (from any thread), brakes the arm at the next look."""
 
     on_step: Callable[[str], None] | None = None
+    on_reached: Callable[[str, Transform | None, Transform], None] | None = None
     stop: threading.Event = field(default_factory=threading.Event)
 
 
@@ -257,8 +259,9 @@ class _Run:
         ensure_remote_control(self.arm.remote_control(), self.config.robot.host, command)
         send = self._joint_command(step) if isinstance(step, JointMove) else self._linear(step)
         reached = self._drive(step.name, send)
-        self.T_base_tcp_from = reached if isinstance(step, JointMove) else step.T_base_tcp
-        self._reached(step.name, reached)
+        target = None if isinstance(step, JointMove) else step.T_base_tcp
+        self.T_base_tcp_from = reached if target is None else target
+        self._reached(step.name, target, reached)
 
     def path(self, moves: Sequence[Move]) -> None:
         """Consecutive moveL targets as one blended path (``path_at``), every waypoint's speed
@@ -290,7 +293,7 @@ class _Run:
             lambda watch: self.arm.move_path(waypoints, timeout_s, follow(watch)),
         )
         self.T_base_tcp_from = moves[-1].T_base_tcp
-        self._reached(names[-1], reached)
+        self._reached(names[-1], moves[-1].T_base_tcp, reached)
 
     def _first_corner(self, first: Waypoint) -> Waypoint:
         """The first corner's radius was planned from where the arm stood then; it never takes
@@ -321,9 +324,11 @@ class _Run:
             self._tool_payload_after_loss()
             raise
 
-    def _reached(self, name: str, reached: Transform) -> None:
+    def _reached(self, name: str, target: Transform | None, reached: Transform) -> None:
         self.reached[name] = reached
         self.reached_ur[name] = ur_pose_list(reached)
+        if self.watch.on_reached is not None:
+            self.watch.on_reached(name, target, reached)
 
     def _joint_command(self, step: JointMove) -> Callable[[ProgressCallback], Transform]:
         motion = self.config.motion

@@ -44,10 +44,12 @@ from handeye_pick.calibration.files import (
 )
 from handeye_pick.cell.captures import Capture, CaptureBook
 from handeye_pick.cell.lock import CellLock
+from handeye_pick.cell.observer import CellObserver, Contained
 from handeye_pick.cell.plan import (
     PLACE,
     CandidateRefusal,
     Chosen,
+    NoFeasibleCandidate,
     PickPlan,
     StepError,
     blended,
@@ -87,11 +89,11 @@ from handeye_pick.errors import (
     Status,
     StopRequested,
 )
-from handeye_pick.geometry import Transform
+from handeye_pick.geometry import Transform, compose
 from handeye_pick.gripper import GraspState, Gripper, connect_gripper
 from handeye_pick.gripper.config import GripperConfig
 from handeye_pick.progress import Progress
-from handeye_pick.robot.port import RobotArm
+from handeye_pick.robot.port import RobotArm, SampleListener
 from handeye_pick.safety import (
     CheckResult,
     ControllerVerdicts,
@@ -142,6 +144,7 @@ class Planned:
     steps: list[Step]
     checks: list[CheckResult]
     record: dict[str, object]
+    T_base_tcp_start: Transform | None = None  # where the TCP stands as it starts (m), if known
 
 
 Prepare = Callable[[Transform, dict[str, object], dict[str, object]], Planned]
@@ -160,8 +163,9 @@ def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
     )
 
 
-def connect_ur_rtde(config: CellConfig) -> RobotArm:
-    """The ur_rtde session for a cell (IO only when a gripper output is configured)."""
+def connect_ur_rtde(config: CellConfig, on_sample: SampleListener | None = None) -> RobotArm:
+    """The ur_rtde session for a cell (IO only when a gripper output is configured);
+    ``on_sample`` hears every RTDE sample it reads."""
     from handeye_pick.robot.ur.arm import URRtdeArm
 
     return URRtdeArm(
@@ -169,6 +173,7 @@ def connect_ur_rtde(config: CellConfig) -> RobotArm:
         with_io=isinstance(config.robot.gripper, GripperConfig),
         stop_decel_mps2=config.motion.stop_decel_mps2,
         watchdog_s=config.robot.watchdog_s,
+        on_sample=on_sample,
     )
 
 
@@ -178,7 +183,9 @@ class Cell:
     ``config`` is a path to the cell YAML or a loaded ``CellConfig``. ``progress`` receives
     progress lines (silent by default). ``connect`` makes the robot session (ur_rtde by default;
     tests pass their own ``RobotArm``). A cell that is never entered only plans offline
-    (``plan`` with a flange pose).
+    (``plan`` with a flange pose). ``observer`` (``cell.observer.CellObserver``, a recording or
+    a live view) hears what the session does; its failures are contained (``Contained``): it
+    can never break a cycle. With the default ``connect`` it also hears every RTDE sample.
     """
 
     def __init__(
@@ -187,9 +194,16 @@ class Cell:
         *,
         progress: Progress | None = None,
         connect: ArmFactory = connect_ur_rtde,
+        observer: CellObserver | None = None,
     ) -> None:
         self.config = config if isinstance(config, CellConfig) else load_config(Path(config))
-        self._watch = SequenceWatch()  # see watch_steps and request_stop
+        self._observer = Contained(observer, "recording") if observer is not None else None
+        if self._observer is not None and connect is connect_ur_rtde:
+            connect = functools.partial(connect_ur_rtde, on_sample=self._observer.on_sample)
+        # see watch_steps and request_stop
+        self._watch = SequenceWatch(
+            on_reached=self._observer.on_reached if self._observer is not None else None
+        )
         self.calibration = calibration_from_config(self.config)
         self.progress = progress if progress is not None else Progress.quiet()
         self._connect_arm = connect
@@ -236,6 +250,8 @@ class Cell:
             self._audit, warnings = open_audit(self.config.audit.file)
             for warning in warnings:
                 log.warning("%s", warning)
+            if self._observer is not None:
+                self._audit.on_append = self._observer.on_audit
         outcome: dict[str, object] = {"event": "outcome", "step": "connect", "reached": {}}
         if request_id is not None:
             outcome["request_id"] = request_id
@@ -253,6 +269,7 @@ class Cell:
             self._close_arm()
             raise
         self._fixed_verdicts.clear()
+        self._tell_status()
 
     def close(self) -> None:
         """Close the robot session and release the audit file; safe to call twice."""
@@ -306,6 +323,7 @@ class Cell:
         if self._halted is None:
             self._halted = why
         self._watch.stop.set()
+        self._tell_status()
 
     def resume(self, *, request_id: str | None = None) -> CellStatus:
         """After the operator cleared a fault on the pendant: a fresh robot session, then the
@@ -334,8 +352,28 @@ class Cell:
         # What the gripper holds after the operator's recovery is unknown: watch no part.
         self._holding = None
         self._watch.stop.clear()
+        self._tell_status()
         log.warning("cell %s resumed (was halted: %s)", self.config.robot.host, reason)
         return status
+
+    def note_cloud(self, path: Path, capture: Capture | None) -> None:
+        """The vision program's point cloud of ``capture`` (a file, camera frame, mm), for the
+        observer (a recording shows it); the cell itself never reads it."""
+        if self._observer is not None:
+            self._observer.on_cloud(path, capture)
+
+    def _tell_status(self, running: dict[str, object] | None = None) -> None:
+        """The observer hears the session's state: running (``running`` says what), halted
+        (and why) or idle."""
+        if self._observer is None:
+            return
+        if running is not None:
+            status: dict[str, object] = {"state": "running", **running}
+        elif self._halted is not None:
+            status = {"state": "halted", "halted_reason": self._halted}
+        else:
+            status = {"state": "idle"}
+        self._observer.on_status({"host": self.config.robot.host, **status})
 
     # --- reading -----------------------------------------------------------------------------
 
@@ -407,7 +445,7 @@ class Cell:
         if name is not None:
             self._move_to_capture(name, request_id)
         T_base_flange = self._steady_flange_pose() if eye_in_hand else None
-        capture = self._captures.register(T_base_flange, "latched", self._cycle)
+        capture = self._register_capture(T_base_flange, "latched")
         self._next_audit().append(capture.record(request_id))
         return capture
 
@@ -431,7 +469,7 @@ class Cell:
         ensure_not_halted(self.config.robot.host, self._halted)
         self._cycle += 1
         T_base_flange = self._steady_flange_pose()
-        capture = self._captures.register(T_base_flange, "latched", self._cycle)
+        capture = self._register_capture(T_base_flange, "latched")
         self._next_audit().append(capture.record(request_id))
         return T_base_flange
 
@@ -444,7 +482,7 @@ class Cell:
                 "fixed): drop it, or check hand_eye.mode"
             )
         self._cycle += 1
-        return self._captures.register(T_base_flange, source, self._cycle)
+        return self._register_capture(T_base_flange, source)
 
     def find_capture(self, capture_id: str) -> Capture:
         """A capture of this session by id; InputError when unknown or forgotten."""
@@ -466,9 +504,16 @@ class Cell:
 
     def _live_capture(self) -> Capture:
         if self.calibration.mode is HandEyeMode.EYE_TO_HAND:
-            return self._captures.register(None, "none (eye-to-hand)", self._cycle)
+            return self._register_capture(None, "none (eye-to-hand)")
         T_base_flange = self.arm.steady_flange_pose(self.config.capture.steady_timeout_s)
-        return self._captures.register(T_base_flange, "live", self._cycle)
+        return self._register_capture(T_base_flange, "live")
+
+    def _register_capture(self, T_base_flange: Transform | None, source: str) -> Capture:
+        """A new capture of this cycle (the observer hears of it)."""
+        capture = self._captures.register(T_base_flange, source, self._cycle)
+        if self._observer is not None:
+            self._observer.on_capture(capture)
+        return capture
 
     def _steady_flange_pose(self) -> Transform:
         """Check the TCP offset against the config, then latch the flange pose at rest."""
@@ -597,20 +642,36 @@ class Cell:
         if T_base_flange is None:  # eye-to-hand: only the position-only yaw needs the arm
             T_base_flange = self.arm.flange_pose()
         place = self.config.place if pick.place else None
-        chosen, pick.refused = choose(
-            self.config,
-            self.calibration,
-            pick.detections,
-            T_base_flange,
-            T_flange_tcp,
-            self.arm,
-            self._fixed_verdicts,
-            T_base_tcp_place=self._next_place_pose(place) if place is not None else None,
-            grip=pick.touch is None,
-            blend=pick.touch is None,  # a touch test stops at every target
-            standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
-            on_plan=pick.on_plan,
-        )
+        plans: list[PickPlan] = []
+
+        def planned(plan: PickPlan) -> None:
+            plans.append(plan)
+            if pick.on_plan is not None:
+                pick.on_plan(plan)
+
+        try:
+            chosen, pick.refused = choose(
+                self.config,
+                self.calibration,
+                pick.detections,
+                T_base_flange,
+                T_flange_tcp,
+                self.arm,
+                self._fixed_verdicts,
+                T_base_tcp_place=self._next_place_pose(place) if place is not None else None,
+                grip=pick.touch is None,
+                blend=pick.touch is None,  # a touch test stops at every target
+                standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
+                on_plan=planned,
+            )
+        except PreflightRefusal as refusal:  # one candidate, refused
+            refused = CandidateRefusal.of(0, pick.detections[0].source, refusal)
+            self._tell_candidates(plans, None, [refused])
+            raise
+        except NoFeasibleCandidate as none:
+            self._tell_candidates(plans, None, none.refusals)
+            raise
+        self._tell_candidates(plans, chosen.index, pick.refused)
         pick.chosen = chosen
         if self._gripper is not None and self._holding is None and pick.touch is None:
             # Fingers left closed (a dropped part) would come down on the part: found by the
@@ -634,7 +695,17 @@ class Cell:
                 **record,
                 "place_index": pick.place_index,
             },
+            compose(T_base_flange, T_flange_tcp),
         )
+
+    def _tell_candidates(
+        self,
+        plans: Sequence[PickPlan],
+        chosen: int | None,
+        refused: Sequence[CandidateRefusal],
+    ) -> None:
+        if self._observer is not None:
+            self._observer.on_candidates(plans, chosen, refused)
 
     def _finish_pick(self, pick: _PickRun, done: Executed | None) -> dict[str, object]:
         """The pick's outcome fields; the next place pose and the part carried brought up to
@@ -689,7 +760,9 @@ class Cell:
                 self.config, rounded, self.arm, self._fixed_verdicts, T_base_tcp_start
             )
             plan = {"operation": what, "config": str(self.config.path)}
-            return Planned(rounded, checks, {**plan, "host": self.config.robot.host})
+            return Planned(
+                rounded, checks, {**plan, "host": self.config.robot.host}, T_base_tcp_start
+            )
 
         def finish(done: Executed | None) -> dict[str, object]:
             if done is not None:
@@ -728,7 +801,8 @@ class Cell:
         audit = self._next_audit()
         self.last_pick_id = audit.pick_id
         outcome: dict[str, object] = {"event": "outcome", **context, **outcome_fields}
-        with self._halt_on_fault(), audited_outcome(audit, outcome):
+        self._tell_status({"pick_id": audit.pick_id, **context, **outcome_fields})
+        with self._told_after(), self._halt_on_fault(), audited_outcome(audit, outcome):
             ensure_not_halted(self.config.robot.host, self._halted)
             planned = prepare(self._ready_tcp_offset(), context, outcome)
             audit.append(
@@ -741,6 +815,8 @@ class Cell:
                     "checks": [asdict(check) for check in planned.checks],
                 }
             )
+            if self._observer is not None:
+                self._observer.on_plan(planned.steps, planned.T_base_tcp_start)
             done = None
             if not dry_run:
                 done = execute(
@@ -762,6 +838,14 @@ class Cell:
         T_flange_tcp = self.arm.tcp_offset()
         ensure_ready(self.arm.status(), T_flange_tcp, self.config.robot)
         return T_flange_tcp
+
+    @contextmanager
+    def _told_after(self) -> Iterator[None]:
+        """The observer hears the state a sequence left, however it ended."""
+        try:
+            yield
+        finally:
+            self._tell_status()
 
     @contextmanager
     def _halt_on_fault(self) -> Iterator[None]:

@@ -21,12 +21,56 @@ from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
     from handeye_pick.cell.plan import PickPlan
+    from handeye_pick.config.schema import CellConfig
+    from handeye_pick.record.publisher import Publisher
 
 
 def add_config_arg(parser: argparse.ArgumentParser) -> None:
     """Add the required ``--config FILE``."""
     parser.add_argument(
         "--config", required=True, type=Path, metavar="FILE", help="cell configuration (YAML)"
+    )
+
+
+def add_record_arg(parser: argparse.ArgumentParser) -> None:
+    """Add ``--record PATH`` and ``--cloud-points N`` (docs/recording.md)."""
+    parser.add_argument(
+        "--record",
+        type=Path,
+        metavar="PATH",
+        help="record the session as MCAP (Foxglove, Lichtblick): a new FILE, or a FOLDER that "
+        "gets one file per hour and per 1 GiB",
+    )
+    parser.add_argument(
+        "--cloud-points",
+        type=int,
+        default=50_000,
+        metavar="N",
+        help="most points of a recorded camera cloud, thinned evenly (default 50000)",
+    )
+
+
+def publisher_from_args(
+    args: argparse.Namespace, config: CellConfig, live: tuple[str, int] | None = None
+) -> Publisher | None:
+    """The session's recording (``--record``) and live view (``live``), or None for neither;
+    the recording's file is created here, before the robot is contacted."""
+    if args.record is None and live is None:
+        return None
+    from handeye_pick.cell.session import calibration_from_config
+    from handeye_pick.record.publisher import Publisher
+    from handeye_pick.record.recorder import check_record_path
+
+    if args.cloud_points < 1:
+        raise InputError(f"--cloud-points {args.cloud_points}: give at least 1")
+    if args.record is not None:
+        check_record_path(args.record)
+    return Publisher(
+        config,
+        calibration_from_config(config),
+        record=args.record,
+        live=live,
+        cloud_points=args.cloud_points,
     )
 
 

@@ -10,6 +10,7 @@ and the error.
 from __future__ import annotations
 
 import argparse
+import contextlib
 from dataclasses import asdict
 from typing import TYPE_CHECKING
 
@@ -17,11 +18,13 @@ from handeye_pick.cli.cell import (
     add_capture_pose_args,
     add_config_arg,
     add_detection_arg,
+    add_record_arg,
     capture_pose_from_args,
     detection_from_args,
     plan_fields,
     print_json,
     progress_from_args,
+    publisher_from_args,
 )
 from handeye_pick.cli.common import add_camera_point_args
 from handeye_pick.errors import ExitCode, HandEyePickError, Status, ending
@@ -51,6 +54,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     add_detection_arg(parser)
     add_camera_point_args(parser, required=False)
     add_capture_pose_args(parser)
+    add_record_arg(parser)
     parser.add_argument(
         "--dry-run",
         action="store_true",
@@ -78,15 +82,21 @@ def run(args: argparse.Namespace) -> int:
         )
         detection = detection_from_args(args)
         given = capture_pose_from_args(args, detection)
-        cell = Cell(config, progress=progress_from_args(args))
-        capture = cell.given_capture(*given) if given is not None else None
-        with cell:
-            result = cell.pick(
-                detection,
-                capture,
-                dry_run=args.dry_run,
-                on_plan=lambda plan: report.update(plan_fields(plan)),
-            )
+        with contextlib.ExitStack() as stack:
+            publisher = publisher_from_args(args, config)
+            if publisher is not None:  # closed after the cell: its last records are recorded
+                stack.enter_context(publisher)
+            cell = Cell(config, progress=progress_from_args(args), observer=publisher)
+            capture = cell.given_capture(*given) if given is not None else None
+            with cell:
+                if args.cloud is not None:
+                    cell.note_cloud(args.cloud, capture)
+                result = cell.pick(
+                    detection,
+                    capture,
+                    dry_run=args.dry_run,
+                    on_plan=lambda plan: report.update(plan_fields(plan)),
+                )
     except (HandEyePickError, KeyboardInterrupt) as exc:
         report.update(_failure_fields(exc))
         if args.json:

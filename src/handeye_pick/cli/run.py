@@ -23,7 +23,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import IO, TYPE_CHECKING
 
-from handeye_pick.cli.cell import add_config_arg
+from handeye_pick.cli.cell import add_config_arg, add_record_arg, publisher_from_args
 from handeye_pick.errors import InputError
 from handeye_pick.progress import Progress
 
@@ -56,10 +56,18 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="serve the protocol over TCP, one client at a time, instead of stdin/stdout "
         "(loopback addresses only unless --allow-remote)",
     )
+    add_record_arg(parser)
+    parser.add_argument(
+        "--live",
+        metavar="[HOST:]PORT",
+        help="serve the recording's channels live over WebSocket (Foxglove, Lichtblick) on "
+        "PORT of 127.0.0.1, or of HOST (loopback addresses only unless --allow-remote)",
+    )
     parser.add_argument(
         "--allow-remote",
         action="store_true",
-        help="allow a --listen address that is not loopback; needs --token-file",
+        help="allow a --listen or --live address that is not loopback; --listen then needs "
+        "--token-file",
     )
     parser.add_argument(
         "--token-file",
@@ -73,19 +81,28 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from handeye_pick.cell.session import Cell
+    from handeye_pick.config.load import load_config
     from handeye_pick.runner import Runner
 
     address = _listen_address(args.listen, args.allow_remote) if args.listen else None
+    live = _live_address(args.live, args.allow_remote) if args.live else None
     token = _read_token(args.token_file) if args.token_file is not None else None
-    if args.allow_remote and token is None:
+    if address is not None and not ipaddress.ip_address(address[0]).is_loopback and not token:
         raise InputError("run --allow-remote needs --token-file FILE with a shared secret")
     progress = Progress(None if args.quiet else sys.stderr)
-    with Cell(args.config, progress=progress) as cell:
-        runner = Runner(cell, token)
-        if address is None:
-            _serve(runner, sys.stdin.fileno(), sys.stdout)
-        else:
-            _serve_tcp(runner, address, progress)
+    config = load_config(args.config)
+    with contextlib.ExitStack() as stack:
+        publisher = publisher_from_args(args, config, live)
+        if publisher is not None:  # closed after the cell: its last records are recorded
+            stack.enter_context(publisher)
+            if publisher.live_port is not None and live is not None:
+                progress.say(f"live view on ws://{live[0]}:{publisher.live_port}")
+        with Cell(config, progress=progress, observer=publisher) as cell:
+            runner = Runner(cell, token)
+            if address is None:
+                _serve(runner, sys.stdin.fileno(), sys.stdout)
+            else:
+                _serve_tcp(runner, address, progress)
     return 0
 
 
@@ -224,7 +241,9 @@ def _write(out: IO[str], reply: dict[str, object]) -> None:
     out.flush()
 
 
-def _listen_address(text: str, allow_remote: bool) -> tuple[str, int]:
+def _listen_address(
+    text: str, allow_remote: bool, option: str = "--listen", exposes: str = "can move the robot"
+) -> tuple[str, int]:
     host, _, port_text = text.rpartition(":")
     host = host.strip("[]")
     try:
@@ -232,16 +251,25 @@ def _listen_address(text: str, allow_remote: bool) -> tuple[str, int]:
         ip = ipaddress.ip_address(host)
     except ValueError:
         raise InputError(
-            f"run --listen: expected IP:PORT like 127.0.0.1:8765, got {text!r}"
+            f"run {option}: expected IP:PORT like 127.0.0.1:8765, got {text!r}"
         ) from None
     if not 0 <= port <= 65535:
-        raise InputError(f"run --listen: port {port} outside 0-65535")
+        raise InputError(f"run {option}: port {port} outside 0-65535")
     if not ip.is_loopback and not allow_remote:
+        advice = (
+            "--allow-remote and --token-file FILE" if option == "--listen" else "--allow-remote"
+        )
         raise InputError(
-            f"run --listen {text}: not a loopback address; anyone who reaches it can move the "
-            "robot: add --allow-remote and --token-file FILE if you mean it"
+            f"run {option} {text}: not a loopback address; anyone who reaches it {exposes}: "
+            f"add {advice} if you mean it"
         )
     return str(ip), port
+
+
+def _live_address(text: str, allow_remote: bool) -> tuple[str, int]:
+    """``--live [HOST:]PORT``: 127.0.0.1 when no host is given."""
+    with_host = text if ":" in text else f"127.0.0.1:{text}"
+    return _listen_address(with_host, allow_remote, "--live", "sees the cell and its audit")
 
 
 def _read_token(path: Path) -> str:

@@ -92,6 +92,10 @@ ProgressCallback = Callable[[float], None]
 """Called while a motion runs with the fraction of it done, 0.0 to 1.0 (best estimate). For a
 path of n waypoints the fraction lies in [k/n, (k+1)/n) while the arm heads for waypoint k."""
 
+SampleListener = Callable[[Sequence[float], float], None]
+"""Hears every RTDE sample an arm reads: ``actual_TCP_pose`` (UR vector, m and rad, base frame)
+and the controller's ``timestamp`` (s since the controller started). Must not raise."""
+
 
 @dataclass(frozen=True)
 class Waypoint:

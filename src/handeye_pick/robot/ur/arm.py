@@ -39,6 +39,7 @@ from handeye_pick.robot.port import (
     RobotStatus,
     RuntimeState,
     SafetyMode,
+    SampleListener,
     Waypoint,
     mode_name,
 )
@@ -141,7 +142,8 @@ class URRtdeArm:
     process has been silent this long; it stays fed while this object's process lives.
     ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
     that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
-    itself gives up on a busy control script after about 4 s).
+    itself gives up on a busy control script after about 4 s). ``on_sample`` hears every RTDE
+    sample read (a recording's ``base -> flange``): every few ms while a move is watched.
     """
 
     def __init__(
@@ -153,8 +155,10 @@ class URRtdeArm:
         watchdog_s: float = 0.2,
         connect_timeout_s: float = 20.0,
         call_timeout_s: float = 6.0,
+        on_sample: SampleListener | None = None,
     ) -> None:
         self.host = host
+        self._on_sample = on_sample
         self._stop_decel_mps2 = stop_decel_mps2
         self._child = Child(
             host,
@@ -566,4 +570,7 @@ class URRtdeArm:
         fields = self._child.call(operation)
         if not isinstance(fields, dict):
             raise RobotConnectionError(f"{operation} on {self.host}: unexpected reply {fields!r}")
-        return Sample(**fields)
+        sample = Sample(**fields)
+        if self._on_sample is not None:
+            self._on_sample(sample.tcp_pose, sample.timestamp_s)
+        return sample
