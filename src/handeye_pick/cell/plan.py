@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -42,7 +43,10 @@ from handeye_pick.safety import (
     chain_checks,
     preflight,
 )
-from handeye_pick.scene import SceneCheck, alternatives
+from handeye_pick.scene import alternatives
+
+if TYPE_CHECKING:
+    from handeye_pick.scene.check import SceneCheck
 
 APPROACH, GRASP, RETREAT = PICK_MOVES
 PLACE_APPROACH, PLACE, PLACE_RETREAT = PLACE_MOVES
@@ -345,6 +349,7 @@ def _try_alternatives(
         grasp.symmetry_step_deg,
     )
     R_start = trial.T_base_tcp_start[:3, :3]
+    labelled = sum(len(tier) for tier in tiers) > 1  # one alternative: the detected grasp
     others: list[AlternativeOutcome] = []
     results: list[CheckResult] = []
     for tier in tiers:
@@ -360,7 +365,7 @@ def _try_alternatives(
                 passing.append((turn, alt, alt_plan, steps, collision))
                 continue
             others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed(collision)))
-            results += _relabelled(collision, alt.label())
+            results += _relabelled(collision, alt.label()) if labelled else collision
         passing.sort(key=lambda trial_: trial_[0])
         for rank, (turn, alt, alt_plan, steps, collision) in enumerate(passing):
             try:
@@ -368,7 +373,7 @@ def _try_alternatives(
             except PreflightRefusal as refusal:
                 failed = collision + refusal.results
                 others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed(failed)))
-                results += _relabelled(failed, alt.label())
+                results += _relabelled(failed, alt.label()) if labelled else failed
                 continue
             others += [
                 AlternativeOutcome(
@@ -412,6 +417,11 @@ def choose(
     ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
     (every check listed) when there was only one.
     """
+    scene = None
+    if config.scene is not None:  # python-fcl is imported only by a cell that has a scene
+        from handeye_pick.scene.check import SceneCheck
+
+        scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
     trial = _Trial(
         config,
         arm,
@@ -420,9 +430,7 @@ def choose(
         T_base_tcp_place,
         grip,
         blend,
-        SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
-        if config.scene is not None
-        else None,
+        scene,
     )
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):

@@ -133,23 +133,28 @@ class Sweep:
                 return None, closest
             s = min(1.0, s + min(steps))
 
+    def exact_nearest(
+        self, piece: Piece, solids: Sequence[Solid], T_base_tcp: Transform
+    ) -> _Nearest:
+        """The pair with the smallest margin at ``T_base_tcp``, every distance exact."""
+        self._place(solids, T_base_tcp)
+        nearest = _Nearest(np.inf, np.inf, 0, 0)
+        for i, solid in enumerate(solids):
+            keep = self._keep(piece, solid)
+            for j in range(len(self.obstacles)):
+                distance = self._distance(solid, j)
+                if distance - keep < nearest.margin_m:
+                    nearest = _Nearest(distance - keep, distance, i, j)
+        return nearest
+
     def deepest(
         self, piece: Piece, solids: Sequence[Solid], s_found: float
     ) -> tuple[float, _Nearest]:
         """Where along a refused piece a solid comes deepest into (or nearest to) an obstacle,
-        scanned at ``SCAN_SAMPLES`` poses and where the sweep stopped; exact distances."""
-        worst: tuple[float, _Nearest] | None = None
-        for s in sorted({*np.linspace(0.0, 1.0, SCAN_SAMPLES).tolist(), s_found}):
-            self._place(solids, piece.pose(s))
-            for i, solid in enumerate(solids):
-                keep = self._keep(piece, solid)
-                for j in range(len(self.obstacles)):
-                    distance = self._distance(solid, j)
-                    if worst is None or distance - keep < worst[1].margin_m:
-                        worst = (s, _Nearest(distance - keep, distance, i, j))
-        if worst is None:  # there is always a solid and an obstacle
-            raise ValueError("nothing to scan")
-        return worst
+        scanned at ``SCAN_SAMPLES`` poses and where the sweep stopped."""
+        samples = sorted({*np.linspace(0.0, 1.0, SCAN_SAMPLES).tolist(), s_found})
+        found = [(s, self.exact_nearest(piece, solids, piece.pose(s))) for s in samples]
+        return min(found, key=lambda item: item[1].margin_m)
 
 
 def _refusal(sweep: Sweep, piece: Piece, solids: Sequence[Solid], s: float) -> CheckResult:
@@ -177,6 +182,7 @@ def check_path(
     The end of every piece is looked at first (most collisions show there, at no cost of a
     sweep), then each piece is swept in order. ``part`` (None: none held) rides on the pieces
     that hold it."""
+
     def solids_of(piece: Piece) -> list[Solid]:
         return [*tool, part] if piece.held and part is not None else list(tool)
 
