@@ -10,6 +10,7 @@ chosen by ``plan.choose`` against a ``ScriptedArm`` (every target reachable).
 
 from __future__ import annotations
 
+import json
 import math
 import re
 import uuid
@@ -22,6 +23,7 @@ from hypothesis import strategies as st
 
 from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.cell.plan import Chosen, NoFeasibleCandidate, choose, pick_steps
+from handeye_pick.cell.session import Cell
 from handeye_pick.cell.steps import Move
 from handeye_pick.cli import main
 from handeye_pick.config.load import load_config
@@ -29,11 +31,13 @@ from handeye_pick.config.schema import CellConfig, SceneBox, SceneConfig, ToolSh
 from handeye_pick.detection import Detection, Symmetry
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import invert, make_transform, rotation_from_euler
+from handeye_pick.runner import pick_reply
 from handeye_pick.safety import PreflightRefusal
 from handeye_pick.scene.check import SceneCheck
 from handeye_pick.scene.collide import PROOF_TOLERANCE_M
 from handeye_pick.scene.path import pieces
 from handeye_pick.scene.shapes import bin_boxes
+from tests.audit_schema import record_problems
 from tests.unit.test_cell_session import ScriptedArm
 
 T_BASE_CAM = np.array(
@@ -448,3 +452,34 @@ def test_bad_scene_and_tool_config_is_one_line_and_exit_2(
 def test_bad_grasp_alternative_keys_are_one_line(tmp_path: Path, grasp: str, expected: str) -> None:
     with pytest.raises(ConfigError, match=expected.replace("[", r"\[")):
         _config(tmp_path, grasp=grasp)
+
+
+# --- the reply, the --json report and the audit say which alternative ---------------------------
+
+
+def test_the_reply_and_the_audit_say_which_alternative_and_why_not_the_others(
+    tmp_path: Path,
+) -> None:
+    config = _config(tmp_path)
+    arm = ScriptedArm(config.audit.file)
+    arm.T_flange_tcp, arm.T_base_flange = T_FLANGE_TCP, T_BASE_FLANGE.copy()
+    cell = Cell(config, connect=lambda _config: arm)
+    cell.connect()
+    result = cell.pick(_part(NEAR, 0.0, 0.0, SQUARE))
+    reply = pick_reply(result)
+    alternative = reply["alternative"]
+    assert isinstance(alternative, dict)
+    assert alternative["yaw_deg"] == 90.0
+    assert alternative["tilt_deg"] == 0.0
+    others = {o["yaw_deg"]: o["reasons"] for o in alternative["others"]}
+    assert "wall 'east'" in others[0.0][0]
+    records = [json.loads(line) for line in config.audit.file.read_text().splitlines()]
+    plan = next(r for r in records if r["event"] == "plan")
+    assert plan["alternative"] == alternative
+    assert plan["detection"]["symmetry"] == {"axis": "z", "order": 4}
+    assert plan["detection"]["size_mm"] == [50.0, 50.0, 50.0]
+    assert record_problems(plan) == []
+    # The moves went to the turned grasp: the tool's x now along base y.
+    grasp = result.plan.grasp
+    assert abs(grasp[1, 0]) == pytest.approx(1.0)
+    assert arm.moves() or arm.paths()

@@ -265,26 +265,31 @@ class Chosen:
     alternative: AlternativeOutcome | None = None  # None: no scene, the detected grasp
     others: list[AlternativeOutcome] = field(default_factory=list)
 
-    def alternative_record(self) -> dict[str, object]:
-        """The ``alternative`` of the reply and the audit's plan record; empty without a scene."""
+    def alternative_fields(self) -> dict[str, object] | None:
+        """The grasp alternative taken and why the others were not, as the reply, the
+        ``--json`` report and the audit's plan record carry it; None without a scene."""
         if self.alternative is None:
-            return {}
+            return None
         taken = self.alternative
         return {
-            "alternative": {
-                "yaw_deg": round(taken.yaw_deg, 3),
-                "tilt_deg": round(taken.tilt_deg, 3),
-                "wrist_turn_deg": round(taken.wrist_turn_deg, 3),
-                "others": [
-                    {
-                        "yaw_deg": round(o.yaw_deg, 3),
-                        "tilt_deg": round(o.tilt_deg, 3),
-                        "reasons": o.reasons,
-                    }
-                    for o in self.others
-                ],
-            }
+            "yaw_deg": round(taken.yaw_deg, 3),
+            "tilt_deg": round(taken.tilt_deg, 3),
+            "wrist_turn_deg": round(taken.wrist_turn_deg, 3),
+            "others": [
+                {
+                    "yaw_deg": round(o.yaw_deg, 3),
+                    "tilt_deg": round(o.tilt_deg, 3),
+                    "wrist_turn_deg": round(o.wrist_turn_deg, 3),
+                    "reasons": o.reasons,
+                }
+                for o in self.others
+            ],
         }
+
+    def alternative_record(self) -> dict[str, object]:
+        """``{"alternative": ...}`` for the plan record; empty without a scene (as before)."""
+        fields = self.alternative_fields()
+        return {} if fields is None else {"alternative": fields}
 
 
 def _failed(results: Sequence[CheckResult]) -> list[str]:

@@ -122,6 +122,8 @@ class PickResult:
     place_index: int | None  # which place pose (None: no place)
     T_base_tcp_place: Transform | None
     cycle_s: float  # wall time of the pick call
+    # With a scene: the grasp alternative taken and why the others were not (Chosen's record)
+    alternative: dict[str, object] | None = None
 
 
 @dataclass(frozen=True)
@@ -613,6 +615,7 @@ class Cell:
                 "candidate": chosen.index,
                 **record,
                 "place_index": pick.place_index,
+                **chosen.alternative_record(),
             },
         )
 
@@ -804,6 +807,7 @@ class _PickRun:
             place_index=self.place_index,
             T_base_tcp_place=_place_pose(chosen.steps) if self.place_index is not None else None,
             cycle_s=cycle_s,
+            alternative=chosen.alternative_fields(),
         )
 
 

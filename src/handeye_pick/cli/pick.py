@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(report)
         raise
+    report.update(plan_fields(result.plan))  # a grasp alternative has targets of its own
     report.update(
         status=result.status,
         pick_id=result.pick_id,
@@ -100,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
         reached={name: ur_pose_list(T) for name, T in result.reached.items()},
         errors={name: asdict(error) for name, error in result.errors.items()},
     )
+    if result.alternative is not None:
+        report["alternative"] = result.alternative
     if result.T_base_tcp_place is not None:
         report["place"] = {
             "index": result.place_index,
