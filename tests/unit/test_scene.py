@@ -34,7 +34,7 @@ from handeye_pick.geometry import invert, make_transform, rotation_from_euler
 from handeye_pick.runner import pick_reply
 from handeye_pick.safety import PreflightRefusal
 from handeye_pick.scene.check import SceneCheck
-from handeye_pick.scene.collide import PROOF_TOLERANCE_M
+from handeye_pick.scene.collide import PROOF_TOLERANCE_M, Group
 from handeye_pick.scene.path import pieces
 from handeye_pick.scene.shapes import bin_boxes
 from tests.audit_schema import record_problems
@@ -307,9 +307,9 @@ def test_the_clearance_is_kept_and_only_just_refuses(tmp_path: Path) -> None:
 
 def test_blended_corners_are_swept_along_their_curve() -> None:
     # A 10 mm probe at the TCP turns a corner at B, rounded with 100 mm: the curve passes
-    # through a small box the straight path misses by 2.5 mm (no clearance asked).
+    # through a small box the straight path misses by 15 mm (no clearance asked).
     A, B, C = (np.array(p) for p in ([0.0, 0.0, 0.5], [0.3, 0.0, 0.5], [0.3, 0.0, 0.2]))
-    box = SceneBox("corner", (10.0, 10.0, 10.0), make_transform(np.eye(3), [0.2875, 0.0, 0.475]))
+    box = SceneBox("corner", (10.0, 10.0, 10.0), make_transform(np.eye(3), [0.275, 0.0, 0.475]))
     probe = ToolShape("probe", np.eye(4), size_mm=(10.0, 10.0, 10.0))
     check = SceneCheck(SceneConfig(boxes=(box,), clearance_mm=0.0), (probe,), np.eye(4))
     start = make_transform(DOWN, A)
@@ -333,7 +333,7 @@ def module_config(tmp_path_factory: pytest.TempPathFactory) -> CellConfig:
     return _config(tmp_path_factory.mktemp("scene"), tool=TOOL + CAMERA)
 
 
-@settings(max_examples=30, deadline=None)
+@settings(max_examples=15, deadline=None)
 @given(
     st.floats(-0.12, 0.12),
     st.floats(-0.07, 0.07),
@@ -343,7 +343,7 @@ def module_config(tmp_path_factory: pytest.TempPathFactory) -> CellConfig:
 def test_a_passing_sweep_keeps_the_clearance_at_every_pose_between(
     module_config: CellConfig, x_m: float, y_m: float, yaw_deg: float, tilt_deg: float
 ) -> None:
-    """Property: whatever the check passes keeps the clearance at every one of 200 poses along
+    """Property: whatever the check passes keeps the clearance at every one of 60 poses along
     each piece, measured with exact distances; whatever it refuses comes within the clearance
     (plus the proof tolerance) somewhere."""
     scene = module_config.scene or pytest.fail("no scene")
@@ -353,11 +353,12 @@ def test_a_passing_sweep_keeps_the_clearance_at_every_pose_between(
     approach = make_transform(R, grasp[:3, 3] + [0.0, 0.0, 0.25])
     steps = [Move("approach", approach), Move("grasp", grasp, slow=True)]
     start = T_BASE_FLANGE @ T_FLANGE_TCP
+    tool = Group(check.tool)
     passed = all(r.passed for r in check.check(steps, start, None, grasp, grasp))
     worst = min(
-        check.sweep.exact_nearest(piece, check.tool, piece.pose(float(s))).margin_m
+        check.sweep.margins(piece, tool, piece.pose(float(s)), near_m=np.inf)[1].margin_m
         for piece in pieces(steps, start)
-        for s in np.linspace(0.0, 1.0, 200)
+        for s in np.linspace(0.0, 1.0, 60)
     )
     if passed:
         assert worst >= -1e-9

@@ -39,7 +39,7 @@ detection's and a place pose's error."""
 NEAR_M = 0.03
 """Pairs whose lower bound is farther than this beyond what they must keep get no exact
 distance."""
-SCAN_SAMPLES = 21
+SCAN_SAMPLES = 11
 """Poses a refused piece is scanned at for the deepest point of its collision."""
 CHECK = "collision"
 
@@ -64,27 +64,12 @@ class Sweep:
         self._centre = np.array([o.T_base_box[:3, 3] for o in self.obstacles])  # (n, 3)
         self._half = np.array([o.size_m / 2.0 for o in self.obstacles])  # (n, 3)
 
-    def _keep(self, piece: Piece, solid: Solid) -> float:
-        if piece.contact and solid.part:
-            return -PART_CONTACT_M
-        return self.clearance_m
-
     def _lower_bounds(self, centres: NDArray[np.float64]) -> NDArray[np.float64]:
         """Distance from each solid centre (k, 3) to each obstacle box (n): shape (k, n)."""
         local = np.einsum("nji,knj->kni", self._R, centres[:, None, :] - self._centre[None])
         outside = np.maximum(np.abs(local) - self._half[None], 0.0)
         bounds: NDArray[np.float64] = np.sqrt(np.einsum("kni,kni->kn", outside, outside))
         return bounds
-
-    def _place(self, solids: Sequence[Solid], T_base_tcp: Transform) -> NDArray[np.float64]:
-        """Put every solid where the TCP pose puts it; their centres (k, 3) in base."""
-        centres = np.empty((len(solids), 3))
-        for i, solid in enumerate(solids):
-            T = T_base_tcp @ solid.T_tcp_solid
-            solid.geometry.setRotation(T[:3, :3])
-            solid.geometry.setTranslation(T[:3, 3])
-            centres[i] = T[:3, 3]
-        return centres
 
     def _distance(self, solid: Solid, obstacle: int) -> float:
         result = fcl.DistanceResult()
@@ -93,84 +78,82 @@ class Sweep:
         )
 
     def margins(
-        self, piece: Piece, solids: Sequence[Solid], T_base_tcp: Transform
-    ) -> tuple[list[float], _Nearest]:
-        """Each solid's margin at ``T_base_tcp`` (a lower bound), and the nearest pair."""
-        centres = self._place(solids, T_base_tcp)
-        bounds = self._lower_bounds(centres)
-        margins = []
-        nearest = _Nearest(np.inf, np.inf, 0, 0)
-        for i, solid in enumerate(solids):
-            keep = self._keep(piece, solid)
-            best = np.inf
-            for j, bound in enumerate(bounds[i]):
-                distance = float(bound) - solid.radius_m
-                if distance < keep + NEAR_M:
-                    distance = self._distance(solid, j)
-                if distance - keep < best:
-                    best = distance - keep
-                    if best < nearest.margin_m:
-                        nearest = _Nearest(best, distance, i, j)
-            margins.append(best)
-        return margins, nearest
+        self, piece: Piece, group: Group, T_base_tcp: Transform, near_m: float = NEAR_M
+    ) -> tuple[NDArray[np.float64], _Nearest]:
+        """Each solid's margin at ``T_base_tcp`` (a lower bound: exact for pairs within
+        ``near_m`` of what they must keep), and the pair with the smallest."""
+        poses = T_base_tcp @ group.T_tcp_solids  # (k, 4, 4)
+        keep = np.where(group.part & piece.contact, -PART_CONTACT_M, self.clearance_m)
+        distance = self._lower_bounds(poses[:, :3, 3]) - group.radii[:, None]
+        placed: set[int] = set()
+        for i, j in zip(*np.nonzero(distance < (keep + near_m)[:, None]), strict=True):
+            solid = group.solids[i]
+            if i not in placed:
+                solid.geometry.setRotation(poses[i, :3, :3])
+                solid.geometry.setTranslation(poses[i, :3, 3])
+                placed.add(i)
+            distance[i, j] = self._distance(solid, j)
+        margin = distance - keep[:, None]
+        i, j = np.unravel_index(int(np.argmin(margin)), margin.shape)
+        nearest = _Nearest(float(margin[i, j]), float(distance[i, j]), int(i), int(j))
+        per_solid: NDArray[np.float64] = margin.min(axis=1)
+        return per_solid, nearest
 
-    def sweep(
-        self, piece: Piece, solids: Sequence[Solid]
-    ) -> tuple[float, _Nearest] | tuple[None, _Nearest]:
+    def sweep(self, piece: Piece, group: Group) -> tuple[float | None, _Nearest]:
         """Advance along ``piece``; (None, nearest pair seen) when it keeps clear, else
         (s, the pair) where a margin fell below ``PROOF_TOLERANCE_M``."""
-        rates = [piece.rate_m(solid.reach_m) for solid in solids]
+        rates = np.array([piece.rate_m(solid.reach_m) for solid in group.solids])
+        moving = rates > 0.0
         s = 0.0
         closest = _Nearest(np.inf, np.inf, 0, 0)
         while True:
-            margins, nearest = self.margins(piece, solids, piece.pose(s))
+            margins, nearest = self.margins(piece, group, piece.pose(s))
             if nearest.margin_m < closest.margin_m:
                 closest = nearest
             if nearest.margin_m < PROOF_TOLERANCE_M:
                 return s, nearest
-            steps = [m / r for m, r in zip(margins, rates, strict=True) if r > 0.0]
-            if s >= 1.0 or not steps:
+            if s >= 1.0 or not moving.any():
                 return None, closest
-            s = min(1.0, s + min(steps))
+            s = min(1.0, s + float(np.min(margins[moving] / rates[moving])))
 
-    def exact_nearest(
-        self, piece: Piece, solids: Sequence[Solid], T_base_tcp: Transform
-    ) -> _Nearest:
-        """The pair with the smallest margin at ``T_base_tcp``, every distance exact."""
-        self._place(solids, T_base_tcp)
-        nearest = _Nearest(np.inf, np.inf, 0, 0)
-        for i, solid in enumerate(solids):
-            keep = self._keep(piece, solid)
-            for j in range(len(self.obstacles)):
-                distance = self._distance(solid, j)
-                if distance - keep < nearest.margin_m:
-                    nearest = _Nearest(distance - keep, distance, i, j)
-        return nearest
-
-    def deepest(
-        self, piece: Piece, solids: Sequence[Solid], s_found: float
-    ) -> tuple[float, _Nearest]:
+    def deepest(self, piece: Piece, group: Group, s_found: float) -> tuple[float, _Nearest]:
         """Where along a refused piece a solid comes deepest into (or nearest to) an obstacle,
         scanned at ``SCAN_SAMPLES`` poses and where the sweep stopped."""
         samples = sorted({*np.linspace(0.0, 1.0, SCAN_SAMPLES).tolist(), s_found})
-        found = [(s, self.exact_nearest(piece, solids, piece.pose(s))) for s in samples]
+        found = [(s, self.margins(piece, group, piece.pose(s))[1]) for s in samples]
         return min(found, key=lambda item: item[1].margin_m)
 
 
-def _refusal(sweep: Sweep, piece: Piece, solids: Sequence[Solid], s: float) -> CheckResult:
-    s, worst = sweep.deepest(piece, solids, s)
-    solid, obstacle = solids[worst.solid], sweep.obstacles[worst.obstacle].label
+class Group:
+    """Solids that move together, with their poses in the TCP frame stacked for numpy."""
+
+    def __init__(self, solids: Sequence[Solid]) -> None:
+        self.solids = list(solids)
+        self.T_tcp_solids = np.array([solid.T_tcp_solid for solid in self.solids])  # (k, 4, 4)
+        self.radii = np.array([solid.radius_m for solid in self.solids])
+        self.part = np.array([solid.part for solid in self.solids])
+
+
+def _refusal(sweep: Sweep, piece: Piece, group: Group, s: float) -> CheckResult:
+    s, worst = sweep.deepest(piece, group, s)
+    solid, obstacle = group.solids[worst.solid], sweep.obstacles[worst.obstacle].label
     where = f"at {piece.fraction(s) * 100.0:.0f} % of {piece.what}"
     if worst.distance_m < 0.0:
         detail = (
             f"{solid.label} would come {-worst.distance_m * 1000.0:.0f} mm into {obstacle} {where}"
         )
     else:
-        keep = worst.distance_m - worst.margin_m
+        keep_mm = (worst.distance_m - worst.margin_m) * 1000.0
         detail = (
-            f"{solid.label} would pass {worst.distance_m * 1000.0:.1f} mm from {obstacle} {where}, "
-            f"closer than the {keep * 1000.0:g} mm it must keep"
+            f"{solid.label} would pass {worst.distance_m * 1000.0:.1f} mm from {obstacle} {where}"
         )
+        if worst.margin_m < 0.0:
+            detail += f", closer than the {keep_mm:g} mm it must keep"
+        else:  # within the clearance's last fraction, where the sweep cannot prove it kept
+            detail += (
+                f", less than {PROOF_TOLERANCE_M * 1000.0:g} mm beyond the {keep_mm:g} mm "
+                "it must keep"
+            )
     return CheckResult(CHECK, piece.move, False, detail)
 
 
@@ -182,32 +165,28 @@ def check_path(
     The end of every piece is looked at first (most collisions show there, at no cost of a
     sweep), then each piece is swept in order. ``part`` (None: none held) rides on the pieces
     that hold it."""
-
-    def solids_of(piece: Piece) -> list[Solid]:
-        return [*tool, part] if piece.held and part is not None else list(tool)
-
-    for piece in pieces:
-        solids = solids_of(piece)
-        _, nearest = sweep.margins(piece, solids, piece.pose(1.0))
+    empty, held = Group(tool), Group([*tool, part] if part is not None else tool)
+    groups = [held if piece.held else empty for piece in pieces]
+    for piece, group in zip(pieces, groups, strict=True):
+        _, nearest = sweep.margins(piece, group, piece.pose(1.0))
         if nearest.margin_m < PROOF_TOLERANCE_M:
-            return [_refusal(sweep, piece, solids, 1.0)]
-    closest: dict[str, tuple[_Nearest, list[Solid]]] = {}
-    for piece in pieces:
-        solids = solids_of(piece)
-        s, nearest = sweep.sweep(piece, solids)
+            return [_refusal(sweep, piece, group, 1.0)]
+    closest: dict[str, tuple[_Nearest, Group]] = {}
+    for piece, group in zip(pieces, groups, strict=True):
+        s, nearest = sweep.sweep(piece, group)
         if s is not None:
-            return [_refusal(sweep, piece, solids, s)]
+            return [_refusal(sweep, piece, group, s)]
         if piece.move not in closest or nearest.distance_m < closest[piece.move][0].distance_m:
-            closest[piece.move] = (nearest, solids)
+            closest[piece.move] = (nearest, group)
     results = []
-    for move, (nearest, solids) in closest.items():
+    for move, (nearest, group) in closest.items():
         obstacle = sweep.obstacles[nearest.obstacle].label
         results.append(
             CheckResult(
                 CHECK,
                 move,
                 True,
-                f"clear: closest {solids[nearest.solid].label} at least "
+                f"clear: closest {group.solids[nearest.solid].label} at least "
                 f"{nearest.distance_m * 1000.0:.1f} mm from {obstacle} "
                 f"(clearance {sweep.clearance_m * 1000.0:g} mm)",
             )

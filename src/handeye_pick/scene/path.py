@@ -14,6 +14,7 @@ Frames and units: ``T_base_tcp`` float64 4x4 in metres in the base frame.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
@@ -22,12 +23,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from handeye_pick.cell.steps import Grip, JointMove, Move, Step
-from handeye_pick.geometry import (
-    Transform,
-    make_transform,
-    rotation_from_rotvec,
-    rotation_to_rotvec,
-)
+from handeye_pick.geometry import Transform, rotation_to_rotvec
 
 Vector = NDArray[np.float64]
 
@@ -48,20 +44,32 @@ class Piece:
     control_m: Vector | None = None
 
     @cached_property
-    def _turn(self) -> Vector:
-        """The rotation from the start's orientation to the end's, as a rotation vector."""
-        return rotation_to_rotvec(self.T_from[:3, :3].T @ self.T_to[:3, :3])
+    def _turn(self) -> tuple[float, Vector, Vector]:
+        """The turn from the start's orientation to the end's: its angle (rad) and the skew
+        matrix of its unit axis and that matrix squared (in the start's frame), for Rodrigues'
+        formula; zeros for no turn."""
+        rotvec = rotation_to_rotvec(self.T_from[:3, :3].T @ self.T_to[:3, :3])
+        angle = float(np.linalg.norm(rotvec))
+        x, y, z = rotvec / angle if angle > 0.0 else np.zeros(3)
+        K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+        return angle, K, K @ K
 
     def pose(self, s: float) -> Transform:
-        """The TCP at ``s`` in [0, 1] along the piece."""
+        """The TCP at ``s`` in [0, 1] along the piece (closed forms: this runs at every step
+        of the sweep)."""
         f = self.f0 + s * (self.f1 - self.f0)
         start, end = self.T_from[:3, 3], self.T_to[:3, 3]
+        T = np.eye(4)
         if self.control_m is None:
-            position = start + f * (end - start)
+            T[:3, 3] = start + f * (end - start)
         else:
-            position = (1 - f) ** 2 * start + 2 * f * (1 - f) * self.control_m + f**2 * end
-        R = self.T_from[:3, :3] @ rotation_from_rotvec(f * self._turn)
-        return make_transform(R, position)
+            T[:3, 3] = (1 - f) ** 2 * start + 2 * f * (1 - f) * self.control_m + f**2 * end
+        angle, K, K2 = self._turn
+        theta = f * angle
+        T[:3, :3] = self.T_from[:3, :3] @ (
+            np.eye(3) + math.sin(theta) * K + (1 - math.cos(theta)) * K2
+        )
+        return T
 
     def fraction(self, s: float) -> float:
         """Where ``s`` lies along the whole move (a blend: along the curve), 0 to 1."""
@@ -69,7 +77,7 @@ class Piece:
 
     def rate_m(self, reach_m: float) -> float:
         """The most any point within ``reach_m`` of the TCP moves per unit of ``s`` (m)."""
-        angle = float(np.linalg.norm(self._turn))
+        angle = self._turn[0]
         start, end = self.T_from[:3, 3], self.T_to[:3, 3]
         if self.control_m is None:
             travel = float(np.linalg.norm(end - start))
