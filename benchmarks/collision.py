@@ -55,8 +55,8 @@ workspace: {min_mm: [-800, -800, 0], max_mm: [800, 800, 800], max_tilt_deg: 30}
 audit: {file: picks.jsonl}
 place:
   poses: [[0.0, 0.40, 0.040, 3.14159265, 0, 0]]
-  approach_mm: 100
-  retreat_mm: 100
+  approach_mm: 250
+  retreat_mm: 250
 scene:
   clearance_mm: 5
   floor_z_mm: 0

@@ -40,7 +40,7 @@ NEAR_M = 0.03
 """Pairs whose lower bound is farther than this beyond what they must keep get no exact
 distance."""
 SCAN_SAMPLES = 11
-"""Poses a refused piece is scanned at for the deepest point of its collision."""
+"""Poses a refused piece is scanned at for the deepest point of the pair that stopped it."""
 CHECK = "collision"
 
 _REQUEST = fcl.DistanceRequest(enable_signed_distance=True)
@@ -60,15 +60,20 @@ class Sweep:
     def __init__(self, obstacles: Sequence[Obstacle], clearance_m: float) -> None:
         self.obstacles = list(obstacles)
         self.clearance_m = clearance_m
-        self._R = np.array([o.T_base_box[:3, :3] for o in self.obstacles])  # (n, 3, 3)
-        self._centre = np.array([o.T_base_box[:3, 3] for o in self.obstacles])  # (n, 3)
+        # A point c in obstacle n's frame is R_n^T (c - t_n): for all n at once c @ [R_1 .. R_n]
+        # less [t_1 @ R_1 .. t_n @ R_n].
+        rotations = [o.T_base_box[:3, :3] for o in self.obstacles]
+        self._to_local = np.hstack(rotations)  # (3, 3n)
+        self._offset = np.concatenate(
+            [o.T_base_box[:3, 3] @ R for o, R in zip(self.obstacles, rotations, strict=True)]
+        )
         self._half = np.array([o.size_m / 2.0 for o in self.obstacles])  # (n, 3)
 
     def _lower_bounds(self, centres: NDArray[np.float64]) -> NDArray[np.float64]:
         """Distance from each solid centre (k, 3) to each obstacle box (n): shape (k, n)."""
-        local = np.einsum("nji,knj->kni", self._R, centres[:, None, :] - self._centre[None])
-        outside = np.maximum(np.abs(local) - self._half[None], 0.0)
-        bounds: NDArray[np.float64] = np.sqrt(np.einsum("kni,kni->kn", outside, outside))
+        local = (centres @ self._to_local - self._offset).reshape(len(centres), -1, 3)
+        outside = np.maximum(np.abs(local) - self._half, 0.0)
+        bounds: NDArray[np.float64] = np.sqrt((outside * outside).sum(axis=2))
         return bounds
 
     def _distance(self, solid: Solid, obstacle: int) -> float:
@@ -78,76 +83,119 @@ class Sweep:
         )
 
     def margins(
-        self, piece: Piece, group: Group, T_base_tcp: Transform, near_m: float = NEAR_M
+        self, piece: Piece, group: Group, T_base_tcp: Transform
     ) -> tuple[NDArray[np.float64], _Nearest]:
         """Each solid's margin at ``T_base_tcp`` (a lower bound: exact for pairs within
-        ``near_m`` of what they must keep), and the pair with the smallest."""
-        poses = T_base_tcp @ group.T_tcp_solids  # (k, 4, 4)
-        keep = np.where(group.part & piece.contact, -PART_CONTACT_M, self.clearance_m)
-        distance = self._lower_bounds(poses[:, :3, 3]) - group.radii[:, None]
+        the group's ``near_m`` of what they must keep), and the pair with the smallest."""
+        R, t = T_base_tcp[:3, :3], T_base_tcp[:3, 3]
+        keep, threshold = group.keep(piece.contact)
+        distance = self._lower_bounds(group.centres @ R.T + t) - group.radii[:, None]
         placed: set[int] = set()
-        for i, j in zip(*np.nonzero(distance < (keep + near_m)[:, None]), strict=True):
+        for i, j in np.argwhere(distance < threshold).tolist():
             solid = group.solids[i]
             if i not in placed:
-                solid.geometry.setRotation(poses[i, :3, :3])
-                solid.geometry.setTranslation(poses[i, :3, 3])
+                T = T_base_tcp @ solid.T_tcp_solid
+                solid.geometry.setRotation(T[:3, :3])
+                solid.geometry.setTranslation(T[:3, 3])
                 placed.add(i)
             distance[i, j] = self._distance(solid, j)
         margin = distance - keep[:, None]
-        i, j = np.unravel_index(int(np.argmin(margin)), margin.shape)
-        nearest = _Nearest(float(margin[i, j]), float(distance[i, j]), int(i), int(j))
+        i, j = divmod(int(np.argmin(margin)), margin.shape[1])
+        nearest = _Nearest(float(margin[i, j]), float(distance[i, j]), i, j)
         per_solid: NDArray[np.float64] = margin.min(axis=1)
         return per_solid, nearest
 
-    def sweep(self, piece: Piece, group: Group) -> tuple[float | None, _Nearest]:
+    def sweep(
+        self,
+        piece: Piece,
+        group: Group,
+        start: tuple[NDArray[np.float64], _Nearest] | None = None,
+    ) -> tuple[float | None, _Nearest]:
         """Advance along ``piece``; (None, nearest pair seen) when it keeps clear, else
-        (s, the pair) where a margin fell below ``PROOF_TOLERANCE_M``."""
+        (s, the pair) where a margin fell below ``PROOF_TOLERANCE_M``. ``start``: the margins
+        at its start when they are known already. The end needs no look of its own: the last
+        step's margins cover the rest of the piece."""
         rates = np.array([piece.rate_m(solid.reach_m) for solid in group.solids])
         moving = rates > 0.0
         s = 0.0
         closest = _Nearest(np.inf, np.inf, 0, 0)
         while True:
-            margins, nearest = self.margins(piece, group, piece.pose(s))
+            margins, nearest = start or self.margins(piece, group, piece.pose(s))
+            start = None
             if nearest.margin_m < closest.margin_m:
                 closest = nearest
             if nearest.margin_m < PROOF_TOLERANCE_M:
                 return s, nearest
-            if s >= 1.0 or not moving.any():
+            if not moving.any():
                 return None, closest
-            s = min(1.0, s + float(np.min(margins[moving] / rates[moving])))
+            s += float(np.min(margins[moving] / rates[moving]))
+            if s >= 1.0:
+                return None, closest
 
-    def deepest(self, piece: Piece, group: Group, s_found: float) -> tuple[float, _Nearest]:
-        """Where along a refused piece a solid comes deepest into (or nearest to) an obstacle,
-        scanned at ``SCAN_SAMPLES`` poses and where the sweep stopped."""
-        samples = sorted({*np.linspace(0.0, 1.0, SCAN_SAMPLES).tolist(), s_found})
-        found = [(s, self.margins(piece, group, piece.pose(s))[1]) for s in samples]
-        return min(found, key=lambda item: item[1].margin_m)
+    def deepest(self, piece: Piece, group: Group, found: tuple[float, _Nearest]) -> _Deepest:
+        """Where along a refused piece the pair the sweep stopped at comes deepest into (or
+        nearest to) each other, scanned at ``SCAN_SAMPLES`` poses and where the sweep stopped
+        (exact distances)."""
+        s_found, pair = found
+        solid = group.solids[pair.solid]
+        keep = pair.distance_m - pair.margin_m
+        T_tcp_solid = solid.T_tcp_solid
+        worst = _Deepest(s_found, pair.distance_m, keep)
+        for s in np.linspace(0.0, 1.0, SCAN_SAMPLES).tolist():
+            T = piece.pose(s) @ T_tcp_solid
+            solid.geometry.setRotation(T[:3, :3])
+            solid.geometry.setTranslation(T[:3, 3])
+            distance = self._distance(solid, pair.obstacle)
+            if distance < worst.distance_m:
+                worst = _Deepest(s, distance, keep)
+        return worst
+
+
+@dataclass(frozen=True)
+class _Deepest:
+    s: float  # along the piece
+    distance_m: float  # negative: how far in
+    keep_m: float  # what the solid must keep from the obstacle
 
 
 class Group:
-    """Solids that move together, with their poses in the TCP frame stacked for numpy."""
+    """Solids that move together, with their poses in the TCP frame stacked for numpy, what
+    they must keep from every obstacle (m), and how near a pair gets an exact distance."""
 
-    def __init__(self, solids: Sequence[Solid]) -> None:
+    def __init__(self, solids: Sequence[Solid], clearance_m: float, near_m: float = NEAR_M) -> None:
         self.solids = list(solids)
-        self.T_tcp_solids = np.array([solid.T_tcp_solid for solid in self.solids])  # (k, 4, 4)
+        self.centres = np.array([solid.T_tcp_solid[:3, 3] for solid in self.solids])  # (k, 3)
         self.radii = np.array([solid.radius_m for solid in self.solids])
-        self.part = np.array([solid.part for solid in self.solids])
+        clear = np.full(len(self.solids), clearance_m)
+        # On a lift-off or a set-down the held part may rest on what it lies on (PART_CONTACT_M)
+        touching = np.where([solid.part for solid in self.solids], -PART_CONTACT_M, clearance_m)
+        self._keep = {
+            contact: (keep, (keep + near_m)[:, None])
+            for contact, keep in ((False, clear), (True, touching))
+        }
+
+    def keep(self, contact: bool) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """What each solid must keep (k,), and below which bound a pair is measured (k, 1)."""
+        return self._keep[contact]
 
 
-def _refusal(sweep: Sweep, piece: Piece, group: Group, s: float) -> CheckResult:
-    s, worst = sweep.deepest(piece, group, s)
-    solid, obstacle = group.solids[worst.solid], sweep.obstacles[worst.obstacle].label
-    where = f"at {piece.fraction(s) * 100.0:.0f} % of {piece.what}"
+def _refusal(
+    sweep: Sweep, piece: Piece, group: Group, found: tuple[float, _Nearest]
+) -> CheckResult:
+    worst = sweep.deepest(piece, group, found)
+    solid = group.solids[found[1].solid]
+    obstacle = sweep.obstacles[found[1].obstacle].label
+    where = f"at {piece.fraction(worst.s) * 100.0:.0f} % of {piece.what}"
     if worst.distance_m < 0.0:
         detail = (
             f"{solid.label} would come {-worst.distance_m * 1000.0:.0f} mm into {obstacle} {where}"
         )
     else:
-        keep_mm = (worst.distance_m - worst.margin_m) * 1000.0
+        keep_mm = worst.keep_m * 1000.0
         detail = (
             f"{solid.label} would pass {worst.distance_m * 1000.0:.1f} mm from {obstacle} {where}"
         )
-        if worst.margin_m < 0.0:
+        if worst.distance_m < worst.keep_m:
             detail += f", closer than the {keep_mm:g} mm it must keep"
         else:  # within the clearance's last fraction, where the sweep cannot prove it kept
             detail += (
@@ -163,21 +211,29 @@ def check_path(
     """One ``collision`` result per move of ``pieces``; stops at the first move that fails.
 
     The end of every piece is looked at first (most collisions show there, at no cost of a
-    sweep), then each piece is swept in order. ``part`` (None: none held) rides on the pieces
-    that hold it."""
-    empty, held = Group(tool), Group([*tool, part] if part is not None else tool)
+    sweep), then each piece is swept in order, from the margins at the end of the one before
+    when it carries the same solids the same way. ``part`` (None: none held) rides on the
+    pieces that hold it."""
+    clearance = sweep.clearance_m
+    empty = Group(tool, clearance)
+    held = Group([*tool, part], clearance) if part is not None else empty
     groups = [held if piece.held else empty for piece in pieces]
+    ends = []
     for piece, group in zip(pieces, groups, strict=True):
-        _, nearest = sweep.margins(piece, group, piece.pose(1.0))
-        if nearest.margin_m < PROOF_TOLERANCE_M:
-            return [_refusal(sweep, piece, group, 1.0)]
+        end = sweep.margins(piece, group, piece.pose(1.0))
+        if end[1].margin_m < PROOF_TOLERANCE_M:
+            return [_refusal(sweep, piece, group, (1.0, end[1]))]
+        ends.append(end)
     closest: dict[str, tuple[_Nearest, Group]] = {}
-    for piece, group in zip(pieces, groups, strict=True):
-        s, nearest = sweep.sweep(piece, group)
+    for index, (piece, group) in enumerate(zip(pieces, groups, strict=True)):
+        before = pieces[index - 1] if index > 0 else None
+        same = before is not None and groups[index - 1] is group and before.contact == piece.contact
+        s, nearest = sweep.sweep(piece, group, ends[index - 1] if same else None)
         if s is not None:
-            return [_refusal(sweep, piece, group, s)]
-        if piece.move not in closest or nearest.distance_m < closest[piece.move][0].distance_m:
-            closest[piece.move] = (nearest, group)
+            return [_refusal(sweep, piece, group, (s, nearest))]
+        for pair in (nearest, ends[index][1]):
+            if piece.move not in closest or pair.distance_m < closest[piece.move][0].distance_m:
+                closest[piece.move] = (pair, group)
     results = []
     for move, (nearest, group) in closest.items():
         obstacle = sweep.obstacles[nearest.obstacle].label
@@ -187,7 +243,7 @@ def check_path(
                 move,
                 True,
                 f"clear: closest {group.solids[nearest.solid].label} at least "
-                f"{nearest.distance_m * 1000.0:.1f} mm from {obstacle} "
+                f"{round(nearest.distance_m * 1000.0, 1) + 0.0:.1f} mm from {obstacle} "
                 f"(clearance {sweep.clearance_m * 1000.0:g} mm)",
             )
         )

@@ -26,6 +26,9 @@ from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.geometry import Transform, rotation_to_rotvec
 
 Vector = NDArray[np.float64]
+_I3: Vector = np.eye(3)
+_I4: Vector = np.eye(4)
+_SAME_ORIENTATION = 1e-12  # rotation matrices this close are one orientation: no turn
 
 
 @dataclass(frozen=True)
@@ -48,7 +51,10 @@ class Piece:
         """The turn from the start's orientation to the end's: its angle (rad) and the skew
         matrix of its unit axis and that matrix squared (in the start's frame), for Rodrigues'
         formula; zeros for no turn."""
-        rotvec = rotation_to_rotvec(self.T_from[:3, :3].T @ self.T_to[:3, :3])
+        R = self.T_from[:3, :3].T @ self.T_to[:3, :3]
+        if float(np.abs(R - _I3).max()) < _SAME_ORIENTATION:  # most moves of a pick do not turn
+            return 0.0, np.zeros((3, 3)), np.zeros((3, 3))
+        rotvec = rotation_to_rotvec(R)
         angle = float(np.linalg.norm(rotvec))
         x, y, z = rotvec / angle if angle > 0.0 else np.zeros(3)
         K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
@@ -59,16 +65,19 @@ class Piece:
         of the sweep)."""
         f = self.f0 + s * (self.f1 - self.f0)
         start, end = self.T_from[:3, 3], self.T_to[:3, 3]
-        T = np.eye(4)
+        T: Transform = _I4.copy()
         if self.control_m is None:
             T[:3, 3] = start + f * (end - start)
         else:
             T[:3, 3] = (1 - f) ** 2 * start + 2 * f * (1 - f) * self.control_m + f**2 * end
         angle, K, K2 = self._turn
         theta = f * angle
-        T[:3, :3] = self.T_from[:3, :3] @ (
-            np.eye(3) + math.sin(theta) * K + (1 - math.cos(theta)) * K2
-        )
+        if angle == 0.0:
+            T[:3, :3] = self.T_from[:3, :3]
+        else:
+            T[:3, :3] = self.T_from[:3, :3] @ (
+                _I3 + math.sin(theta) * K + (1 - math.cos(theta)) * K2
+            )
         return T
 
     def fraction(self, s: float) -> float:
