@@ -362,6 +362,11 @@ def _try_alternatives(
         for alt in tier:
             turn = math.degrees(rotation_angle_between(R_start, alt.T_base_tcp[:3, :3]))
             alt_plan = _with_grasp(plan, alt.T_base_tcp, grasp)
+            early = scene.descent_refusal(alt_plan.approach, alt.T_base_tcp)
+            if early is not None:  # the tool at the grasp is in the way: no sequence to build
+                others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed([early])))
+                results += _relabelled([early], alt.label()) if labelled else [early]
+                continue
             steps = trial.sequence(alt_plan)
             collision = scene.check(
                 steps, trial.T_base_tcp_start, part_size, plan.T_base_obj, alt.T_base_tcp

@@ -6,12 +6,14 @@ from __future__ import annotations
 from collections.abc import Sequence
 
 from handeye_pick.cell.steps import Step
-from handeye_pick.config.schema import SceneConfig, ToolShape
+from handeye_pick.config.schema import PICK_MOVES, SceneConfig, ToolShape
 from handeye_pick.geometry import Transform, invert
 from handeye_pick.safety import CheckResult
-from handeye_pick.scene.collide import Sweep, check_path
-from handeye_pick.scene.path import pieces
+from handeye_pick.scene.collide import Group, Sweep, check_path, end_refusal
+from handeye_pick.scene.path import Piece, describe_move, pieces
 from handeye_pick.scene.shapes import obstacles, part_solid, tool_solids
+
+GRASP = PICK_MOVES[1]
 
 
 class SceneCheck:
@@ -23,6 +25,25 @@ class SceneCheck:
     ) -> None:
         self.sweep = Sweep(obstacles(scene), scene.clearance_mm / 1000.0)
         self.tool = tool_solids(shape, T_flange_tcp)
+        self._tool = Group(self.tool, self.sweep.clearance_m)
+
+    def descent_refusal(
+        self, T_base_tcp_approach: Transform, T_base_tcp_grasp: Transform
+    ) -> CheckResult | None:
+        """The refusal of a grasp whose tool, standing at ``T_base_tcp_grasp``, is too close
+        to the scene already (None: it is not); the cheap first look at an alternative, before
+        its whole sequence is built and swept."""
+        descent = Piece(
+            GRASP,
+            describe_move(GRASP),
+            T_base_tcp_approach,
+            T_base_tcp_grasp,
+            0.0,
+            1.0,
+            held=False,
+            contact=False,
+        )
+        return end_refusal(self.sweep, descent, self._tool)
 
     def check(
         self,
@@ -40,4 +61,4 @@ class SceneCheck:
             if part_size_mm is not None
             else None
         )
-        return check_path(self.sweep, pieces(steps, T_base_tcp_start), self.tool, part)
+        return check_path(self.sweep, pieces(steps, T_base_tcp_start), self._tool, part)

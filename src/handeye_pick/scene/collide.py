@@ -205,19 +205,26 @@ def _refusal(
     return CheckResult(CHECK, piece.move, False, detail)
 
 
+def end_refusal(sweep: Sweep, piece: Piece, group: Group) -> CheckResult | None:
+    """The refusal of ``piece`` when its end is too close already, else None: one look, no
+    sweep (most collisions of a grasp show there)."""
+    _, nearest = sweep.margins(piece, group, piece.pose(1.0))
+    if nearest.margin_m < PROOF_TOLERANCE_M:
+        return _refusal(sweep, piece, group, (1.0, nearest))
+    return None
+
+
 def check_path(
-    sweep: Sweep, pieces: Sequence[Piece], tool: Sequence[Solid], part: Solid | None
+    sweep: Sweep, pieces: Sequence[Piece], tool: Group, part: Solid | None
 ) -> list[CheckResult]:
     """One ``collision`` result per move of ``pieces``; stops at the first move that fails.
 
     The end of every piece is looked at first (most collisions show there, at no cost of a
     sweep), then each piece is swept in order, from the margins at the end of the one before
-    when it carries the same solids the same way. ``part`` (None: none held) rides on the
-    pieces that hold it."""
-    clearance = sweep.clearance_m
-    empty = Group(tool, clearance)
-    held = Group([*tool, part], clearance) if part is not None else empty
-    groups = [held if piece.held else empty for piece in pieces]
+    when it carries the same solids the same way. ``part`` (None: none held) rides with the
+    ``tool`` on the pieces that hold it."""
+    held = Group([*tool.solids, part], sweep.clearance_m) if part is not None else tool
+    groups = [held if piece.held else tool for piece in pieces]
     ends = []
     for piece, group in zip(pieces, groups, strict=True):
         end = sweep.margins(piece, group, piece.pose(1.0))
