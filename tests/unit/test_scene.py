@@ -35,8 +35,8 @@ from handeye_pick.runner import pick_reply
 from handeye_pick.safety import PreflightRefusal
 from handeye_pick.scene.check import SceneCheck
 from handeye_pick.scene.collide import PROOF_TOLERANCE_M, Group
+from handeye_pick.scene.layout import bin_boxes
 from handeye_pick.scene.path import pieces
-from handeye_pick.scene.shapes import bin_boxes
 from tests.audit_schema import record_problems
 from tests.unit.test_cell_session import ScriptedArm
 

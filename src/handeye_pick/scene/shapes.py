@@ -1,10 +1,8 @@
-"""The solids of a cell: the obstacles of ``scene`` (a bin as five boxes, box obstacles, the
-floor) and the tool's solids of ``tool.shape``, as python-fcl objects.
+"""The solids of a cell as python-fcl objects: the obstacles of ``scene`` (``layout``'s boxes
+and the floor) and the tool's solids of ``tool.shape``, and the held part.
 
 Frames and units: obstacle poses ``T_base_*`` and tool solid poses ``T_tcp_*`` are float64 4x4
-in metres; config sizes are millimetres. A bin's frame has its origin at the centre of the inner
-floor and z up out of the bin; its walls are named by the side they stand on: east +x, west -x,
-north +y, south -y of the bin's frame.
+in metres; config sizes are millimetres.
 """
 
 from __future__ import annotations
@@ -16,8 +14,9 @@ import fcl
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.config.schema import BinConfig, SceneConfig, ToolShape
+from handeye_pick.config.schema import SceneConfig, ToolShape
 from handeye_pick.geometry import Transform, compose, invert, make_transform
+from handeye_pick.scene.layout import scene_boxes
 
 FLOOR_HALF_SIZE_M = 10.0  # the floor plane as a box 20 m wide: wider than any cell
 FLOOR_THICKNESS_M = 1.0
@@ -51,37 +50,9 @@ def _box_obstacle(label: str, size_m: NDArray[np.float64], T_base_box: Transform
     return Obstacle(label, size_m, T_base_box, fcl.CollisionObject(box, transform))
 
 
-def bin_boxes(bin_: BinConfig) -> list[tuple[str, NDArray[np.float64], Transform]]:
-    """A bin's floor and four walls as (name, size m, ``T_base_box``): the floor reaches under
-    the walls, the east and west walls span the whole outer width, north and south fit between
-    them, so the corners are closed."""
-    x, y, z = (v / 1000.0 for v in bin_.inner_mm)
-    wall, floor = bin_.wall_mm / 1000.0, bin_.floor_mm / 1000.0
-    outer_y = y + 2.0 * wall
-    parts = {
-        "floor": ((x + 2.0 * wall, outer_y, floor), (0.0, 0.0, -floor / 2.0)),
-        "east": ((wall, outer_y, z), ((x + wall) / 2.0, 0.0, z / 2.0)),
-        "west": ((wall, outer_y, z), (-(x + wall) / 2.0, 0.0, z / 2.0)),
-        "north": ((x, wall, z), (0.0, (y + wall) / 2.0, z / 2.0)),
-        "south": ((x, wall, z), (0.0, -(y + wall) / 2.0, z / 2.0)),
-    }
-    return [
-        (name, np.array(size), compose(bin_.T_base_bin, make_transform(np.eye(3), centre)))
-        for name, (size, centre) in parts.items()
-    ]
-
-
 def obstacles(scene: SceneConfig) -> list[Obstacle]:
-    """Every obstacle of ``scene``: each bin's floor and walls, each box, the floor plane."""
-    out = []
-    for bin_ in scene.bins:
-        for name, size_m, T_base_box in bin_boxes(bin_):
-            label = f"bin '{bin_.name}' floor" if name == "floor" else f"bin '{bin_.name}' wall"
-            label += "" if name == "floor" else f" '{name}'"
-            out.append(_box_obstacle(label, size_m, T_base_box))
-    for box in scene.boxes:
-        size_m = np.array(box.size_mm) / 1000.0
-        out.append(_box_obstacle(f"box '{box.name}'", size_m, box.T_base_box))
+    """Every obstacle of ``scene``: its boxes (``layout.scene_boxes``) and the floor plane."""
+    out = [_box_obstacle(label, size, T) for label, size, T in scene_boxes(scene)]
     if scene.floor_z_mm is not None:
         size = np.array([2.0 * FLOOR_HALF_SIZE_M, 2.0 * FLOOR_HALF_SIZE_M, FLOOR_THICKNESS_M])
         centre = np.array([0.0, 0.0, scene.floor_z_mm / 1000.0 - FLOOR_THICKNESS_M / 2.0])
