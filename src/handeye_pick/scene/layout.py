@@ -49,3 +49,17 @@ def scene_boxes(scene: SceneConfig) -> list[Box]:
     for box in scene.boxes:
         out.append((f"box '{box.name}'", np.array(box.size_mm) / 1000.0, box.T_base_box))
     return out
+
+
+def describe_scene(scene: SceneConfig, tool_solids: int) -> str:
+    """One line for ``status``: the bins, the boxes, the floor, the clearance, the tool."""
+    parts = [
+        f"bin '{b.name}' ({' x '.join(f'{v:g}' for v in b.inner_mm)} mm inside)"
+        for b in scene.bins
+    ]
+    parts += [f"box '{b.name}'" for b in scene.boxes]
+    if scene.floor_z_mm is not None:
+        parts.append(f"floor at z {scene.floor_z_mm:g} mm")
+    return (
+        f"{', '.join(parts)}; clearance {scene.clearance_mm:g} mm; tool of {tool_solids} solids"
+    )
