@@ -67,13 +67,15 @@ class Sweep:
         self._offset = np.concatenate(
             [o.T_base_box[:3, 3] @ R for o, R in zip(self.obstacles, rotations, strict=True)]
         )
-        self._half = np.array([o.size_m / 2.0 for o in self.obstacles])  # (n, 3)
+        self._half = np.concatenate([o.size_m / 2.0 for o in self.obstacles])  # (3n,)
 
     def _lower_bounds(self, centres: NDArray[np.float64]) -> NDArray[np.float64]:
         """Distance from each solid centre (k, 3) to each obstacle box (n): shape (k, n)."""
-        local = (centres @ self._to_local - self._offset).reshape(len(centres), -1, 3)
-        outside = np.maximum(np.abs(local) - self._half, 0.0)
-        bounds: NDArray[np.float64] = np.sqrt((outside * outside).sum(axis=2))
+        outside = np.abs(centres @ self._to_local - self._offset)  # (k, 3n), in each box's frame
+        outside -= self._half
+        np.maximum(outside, 0.0, out=outside)
+        by_box = outside.reshape(len(centres), -1, 3)
+        bounds: NDArray[np.float64] = np.sqrt(np.einsum("kni,kni->kn", by_box, by_box))
         return bounds
 
     def _distance(self, solid: Solid, obstacle: int) -> float:
@@ -91,7 +93,8 @@ class Sweep:
         keep, threshold = group.keep(piece.contact)
         distance = self._lower_bounds(group.centres @ R.T + t) - group.radii[:, None]
         placed: set[int] = set()
-        for i, j in np.argwhere(distance < threshold).tolist():
+        n = distance.shape[1]
+        for i, j in (divmod(k, n) for k in np.flatnonzero(distance < threshold).tolist()):
             solid = group.solids[i]
             if i not in placed:
                 T = T_base_tcp @ solid.T_tcp_solid
