@@ -35,7 +35,7 @@ from handeye_pick.runner import pick_reply
 from handeye_pick.safety import PreflightRefusal
 from handeye_pick.scene.check import SceneCheck
 from handeye_pick.scene.collide import PROOF_TOLERANCE_M, Group
-from handeye_pick.scene.layout import bin_boxes
+from handeye_pick.scene.layout import bin_boxes, describe_scene
 from handeye_pick.scene.path import pieces
 from tests.audit_schema import record_problems
 from tests.unit.test_cell_session import ScriptedArm
@@ -484,3 +484,13 @@ def test_the_reply_and_the_audit_say_which_alternative_and_why_not_the_others(
     grasp = result.plan.grasp
     assert abs(grasp[1, 0]) == pytest.approx(1.0)
     assert arm.moves() or arm.paths()
+
+
+def test_status_describes_the_scene_in_one_line(tmp_path: Path) -> None:
+    config = _config(tmp_path, scene=SCENE + FIXTURES)
+    scene = config.scene or pytest.fail("no scene")
+    line = describe_scene(scene, len(config.tool_shape))
+    assert line == (
+        "bin 'parts' (300 x 200 x 150 mm inside), box 'fixture', box 'column', floor at z 0 mm; "
+        "clearance 5 mm; tool of 3 solids"
+    )
