@@ -494,3 +494,22 @@ def test_status_describes_the_scene_in_one_line(tmp_path: Path) -> None:
         "bin 'parts' (300 x 200 x 150 mm inside), box 'fixture', box 'column', floor at z 0 mm; "
         "clearance 5 mm; tool of 3 solids"
     )
+
+
+def test_a_move_to_a_named_pose_is_swept_too(tmp_path: Path) -> None:
+    poses = """
+poses:
+  beyond: {tcp_pose: [-0.40, 0.40, 0.45, 3.14159265, 0, 0]}
+  beside: {tcp_pose: [-0.10, 0.00, 0.45, 3.14159265, 0, 0]}
+"""
+    config = _config(tmp_path, scene=SCENE + FIXTURES, extra=poses)
+    arm = ScriptedArm(config.audit.file)
+    arm.T_flange_tcp, arm.T_base_flange = T_FLANGE_TCP, T_BASE_FLANGE.copy()
+    cell = Cell(config, connect=lambda _config: arm)
+    cell.connect()
+    with pytest.raises(PreflightRefusal, match=r"beyond collision: tool '.+' would come .* into "
+                                               r"box 'column' at \d+ % of the move to beyond"):
+        cell.move_to("beyond")
+    assert not arm.moves()
+    cell.move_to("beside")  # clear of the column: it moves
+    assert len(arm.moves()) == 1

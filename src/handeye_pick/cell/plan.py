@@ -203,6 +203,27 @@ def check_steps(
     )
 
 
+def with_scene_checks(
+    config: CellConfig,
+    steps: Sequence[Step],
+    T_base_tcp_start: Transform,
+    T_flange_tcp: Transform,
+    checks: list[CheckResult],
+) -> list[CheckResult]:
+    """``checks`` of a sequence of configured targets and, with a scene, the tool's sweep along
+    it from ``T_base_tcp_start`` (``scene.check.SceneCheck.check_tool``); raises
+    ``PreflightRefusal`` listing them all when a collision check fails."""
+    if config.scene is None:
+        return checks
+    from handeye_pick.scene.check import SceneCheck
+
+    scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
+    results = checks + scene.check_tool(steps, T_base_tcp_start)
+    if not all(r.passed for r in results):
+        raise PreflightRefusal(results)
+    return results
+
+
 def reached_errors(steps: Sequence[Step], reached: dict[str, Transform]) -> dict[str, StepError]:
     """Reached pose vs target for every linear move that ran."""
     return {

@@ -57,6 +57,7 @@ from handeye_pick.cell.plan import (
     describe_plan,
     place_steps,
     reached_errors,
+    with_scene_checks,
 )
 from handeye_pick.cell.records import (
     append_failure,
@@ -661,8 +662,12 @@ class Cell:
         def prepare(
             T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
         ) -> Planned:
-            # Where the arm stands is read only when corners are rounded (blend_mm > 0).
-            T_base_tcp_start = self.arm.tcp_pose() if self.config.motion.blend_mm > 0 else None
+            # Where the arm stands is read only when corners are rounded (blend_mm > 0) or the
+            # path is swept against a scene.
+            swept = self.config.scene is not None
+            T_base_tcp_start = (
+                self.arm.tcp_pose() if self.config.motion.blend_mm > 0 or swept else None
+            )
             rounded = (
                 blended(self.config, steps, T_base_tcp_start)
                 if T_base_tcp_start is not None
@@ -671,6 +676,10 @@ class Cell:
             checks = check_steps(
                 self.config, rounded, self.arm, self._fixed_verdicts, T_base_tcp_start
             )
+            if T_base_tcp_start is not None:
+                checks = with_scene_checks(
+                    self.config, rounded, T_base_tcp_start, T_flange_tcp, checks
+                )
             plan = {"operation": what, "config": str(self.config.path)}
             return Planned(rounded, checks, {**plan, "host": self.config.robot.host})
 

@@ -62,3 +62,9 @@ class SceneCheck:
             else None
         )
         return check_path(self.sweep, pieces(steps, T_base_tcp_start), self._tool, part)
+
+    def check_tool(self, steps: Sequence[Step], T_base_tcp_start: Transform) -> list[CheckResult]:
+        """``collision`` results of a sequence of configured targets (a place, a named pose)
+        driven from ``T_base_tcp_start``, the tool alone: a part carried since an earlier pick
+        is not modelled."""
+        return check_path(self.sweep, pieces(steps, T_base_tcp_start), self._tool, None)
