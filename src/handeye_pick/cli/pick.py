@@ -140,6 +140,11 @@ def _print_summary(result: PickResult, audit_file: str) -> None:
         f"  flange pose  {_fmt(plan.T_base_flange)} ({result.capture.source})",
         f"  object       {_fmt(plan.T_base_obj)}",
     ]
+    if result.alternative is not None:
+        lines.append(
+            f"  grasp        turned {result.alternative['yaw_deg']} deg about the part's "
+            f"symmetry axis, tilted {result.alternative['tilt_deg']} deg (docs/scene.md)"
+        )
     for name, T_target in plan.targets().items():
         lines.append(_step_line(name, T_target, result.errors))
     if result.T_base_tcp_place is not None:
