@@ -35,8 +35,9 @@ _STANDOFFS = {"approach_mm": _STANDOFF, "retreat_mm": _STANDOFF}  # of the grasp
 _STRAIGHT = Number("mm", minimum=0.0, maximum=MAX_STANDOFF_MM)
 _ALTERNATIVES = {
     "tilt_max_deg": Number("deg", minimum=0.0, maximum=45.0, default=GraspConfig.tilt_max_deg),
+    # At least 5 deg: with the largest tilt, at most 72 turns x 10 tilts = 720 alternatives
     "symmetry_step_deg": Number(
-        "deg", minimum=1.0, maximum=180.0, default=GraspConfig.symmetry_step_deg
+        "deg", minimum=5.0, maximum=180.0, default=GraspConfig.symmetry_step_deg
     ),
 }
 MAX_PART_MM = 1000.0  # a held part bigger than a metre is one written in the wrong unit
