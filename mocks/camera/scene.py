@@ -117,6 +117,37 @@ class Scene:
         self._boxes[name] = box
         return box
 
+    def add_bin(
+        self,
+        name: str,
+        floor_centre_m: tuple[float, float, float],
+        inner_m: tuple[float, float, float],
+        wall_m: float,
+        floor_m: float,
+    ) -> list[str]:
+        """Add an open bin, its sides along base x and y: a floor and four walls, each a box
+        named ``"<name> floor"``, ``"<name> wall east"`` (+x), west, north (+y), south.
+        ``floor_centre_m`` is the centre of its inner floor (the top of the floor box),
+        ``inner_m`` the inside length (x), width (y) and wall height (z). Returns the names."""
+        x, y, z = inner_m
+        cx, cy, cz = floor_centre_m
+        outer_x, outer_y = x + 2.0 * wall_m, y + 2.0 * wall_m
+        # (name, size, bottom face centre): east and west span the outer width (closed corners)
+        parts = [
+            ("floor", (outer_x, outer_y, floor_m), (cx, cy, cz - floor_m)),
+            ("wall east", (wall_m, outer_y, z), (cx + (x + wall_m) / 2.0, cy, cz)),
+            ("wall west", (wall_m, outer_y, z), (cx - (x + wall_m) / 2.0, cy, cz)),
+            ("wall north", (x, wall_m, z), (cx, cy + (y + wall_m) / 2.0, cz)),
+            ("wall south", (x, wall_m, z), (cx, cy - (y + wall_m) / 2.0, cz)),
+        ]
+        names = []
+        for part, size, (bx, by, bz) in parts:
+            T = np.eye(4)
+            T[:3, 3] = [bx, by, bz]
+            self.add_box(f"{name} {part}", size, T)
+            names.append(f"{name} {part}")
+        return names
+
     def move_box(self, name: str, T_base_box: ArrayLike) -> Box:
         """Put box ``name`` at a new pose (m); KeyError if there is no such box."""
         T = checked_transform(T_base_box, f"box {name!r}: T_base_box")

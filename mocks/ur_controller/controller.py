@@ -89,6 +89,8 @@ class Controller:
         self._feedback = _feedback_bits(options.feedback_input)
         self._record = CommandRecord(options.record_path)
         self._motions = CommandRecord(options.motion_record_path)
+        # The target TCP pose of every cycle a motion moved, by motion index (trace_tcp only)
+        self._trace: dict[int, list[list[float]]] | None = {} if options.trace_tcp else None
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | None = None
@@ -492,6 +494,8 @@ class Controller:
             motion = None
         if motion is not None:
             self._fire_move_faults(motion.index, motion.fraction)
+            if self._trace is not None:
+                self._trace.setdefault(motion.index, []).append(self.arm.tcp_pose.tolist())
         self.gripper.advance(dt_s)
         self._record_ended_motions()
         self._publish()
@@ -504,6 +508,8 @@ class Controller:
                 "end_t": end.end_s, "moving_s": end.end_s - motion.started_s, "end": end.reason,
                 **(end.detail or {}),
                 **({} if motion.path is None else {"reached_t": list(motion.reached_s)}),
+                **({} if self._trace is None
+                   else {"tcp_trace": self._trace.pop(motion.index, [])}),
             })
         self.arm.ended.clear()
 

@@ -12,6 +12,9 @@ Detection file (YAML)::
       # quaternion_wxyz: [1, 0, 0, 0]
       # rpy_deg: {angles: [0, 0, 0], convention: xyz}   # scipy: xyz extrinsic, XYZ intrinsic
       # matrix: [[1, 0, 0], [0, 1, 0], [0, 0, 1]]       # 3x3 rotation, validated
+    size_mm: [80, 60, 50]         # optional; the part's box in the object frame (x, y, z), mm
+    symmetry: {axis: z, order: 4} # optional; the part looks the same turned 360/order deg
+                                  # about that object axis (order 2, 3, 4, 6 or inf)
     capture:                      # optional; eye-in-hand: the flange pose at image acquisition
       flange_pose_ur: [x, y, z, rx, ry, rz]   # T_base_flange as a UR vector, m and rad
       # robot_pose_file: RobotTransform.yaml  # or Zivid's 4x4 file (mm), relative to this file
@@ -59,6 +62,17 @@ CAPTURE_KEYS = ("flange_pose_ur", "robot_pose_file")
 # Rotation vectors longer than calibration.MAX_ROTVEC_RAD are in degrees.
 MAX_ROTATION_ENTRY = 1e6
 MAX_EULER_DEG = 360.0
+MAX_PART_MM = 1000.0  # a part bigger than a metre is one written in metres (or in microns)
+SYMMETRY_ORDERS = ("2", "3", "4", "6", "inf")
+
+
+@dataclass(frozen=True)
+class Symmetry:
+    """The part looks the same turned by every multiple of 360/``order`` degrees about its
+    object frame's ``axis``; ``order`` 0 stands for any angle (``inf``)."""
+
+    axis: str  # x, y or z of the object frame
+    order: int  # 2, 3, 4, 6, or 0 for inf
 
 
 @dataclass(frozen=True)
@@ -73,6 +87,10 @@ class Detection:
     position_only: bool
     source: str  # where it came from, for messages and the audit record
     T_base_flange_at_capture: Transform | None = None  # from the file's capture section (m)
+    # The part's box in the object frame (mm): x and y centred on the origin, from 0 to z along
+    # +z, the way the tool points into it (docs/scene.md); None: not given
+    size_mm: tuple[float, float, float] | None = None
+    symmetry: Symmetry | None = None
 
 
 def _check_point_mm(p_cam_mm: NDArray[np.float64], source: str) -> None:
@@ -161,7 +179,9 @@ def detection_from_data(data: object, source: str, capture_folder: Path | None =
     ``capture`` (the flange pose at acquisition) is accepted only with ``capture_folder``, the
     folder its ``robot_pose_file`` is relative to: files carry it, run-loop requests do not.
     """
-    allowed = ("position_mm", "orientation") + (("capture",) if capture_folder else ())
+    allowed = ("position_mm", "orientation", "size_mm", "symmetry") + (
+        ("capture",) if capture_folder else ()
+    )
     top = Fields(data, source=source, prefix="", allowed=allowed, error=DetectionError)
     p_mm = top.vector("position_mm", 3)
     _check_point_mm(p_mm, f"{source}: position_mm")
@@ -170,7 +190,35 @@ def detection_from_data(data: object, source: str, capture_folder: Path | None =
     T_base_flange = None
     if capture_folder is not None and top.has("capture"):
         T_base_flange = _capture_pose(top.section("capture", CAPTURE_KEYS), capture_folder)
-    return Detection(make_transform(R, p_mm / 1000.0), position_only, source, T_base_flange)
+    return Detection(
+        make_transform(R, p_mm / 1000.0),
+        position_only,
+        source,
+        T_base_flange,
+        size_mm=_size(top) if top.has("size_mm") else None,
+        symmetry=_symmetry(top) if top.has("symmetry") else None,
+    )
+
+
+def _size(top: Fields) -> tuple[float, float, float]:
+    size = top.vector("size_mm", 3)
+    if not all(0.0 < v <= MAX_PART_MM for v in size):
+        top.fail(
+            "size_mm",
+            f"every size must lie in (0, {MAX_PART_MM:g}] mm, got {size.tolist()} (metres given?)",
+        )
+    return float(size[0]), float(size[1]), float(size[2])
+
+
+def _symmetry(top: Fields) -> Symmetry:
+    symmetry = top.section("symmetry", ("axis", "order"))
+    order = symmetry.raw("order")
+    if isinstance(order, bool) or str(order) not in SYMMETRY_ORDERS:
+        symmetry.fail("order", f"expected one of {', '.join(SYMMETRY_ORDERS)}, got {order!r}")
+    return Symmetry(
+        axis=symmetry.string("axis", choices=("x", "y", "z")),
+        order=0 if str(order) == "inf" else int(str(order)),
+    )
 
 
 def _capture_pose(capture: Fields, folder: Path) -> Transform:

@@ -60,6 +60,9 @@ class Scene:
     workspace_min_m: tuple[float, float, float]
     workspace_max_m: tuple[float, float, float]
     cloud_base_m: NDArray[np.float64] | None = None  # (N, 3) points in base, metres
+    # The scene's boxes (bin walls and floors, fixtures) as (label, edge lengths m, T_base_box
+    # of the box's centre), drawn as grey outlines (docs/scene.md)
+    obstacles: tuple[tuple[str, NDArray[np.float64], Transform], ...] = ()
 
 
 def scene_frames(scene: Scene) -> list[tuple[str, Transform]]:
@@ -106,8 +109,11 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
     box_max_mm = np.array(scene.workspace_max_m) * _M_TO_MM
     cloud_mm = None if scene.cloud_base_m is None else scene.cloud_base_m * _M_TO_MM
 
+    obstacle_edges = [_oriented_box_edges(size, T) for _, size, T in scene.obstacles]
+
     # One cube around everything so all three views share the same scale.
     extent_points = [*origins_mm.values(), box_min_mm, box_max_mm]
+    extent_points += [point for edges in obstacle_edges for edge in edges for point in edge]
     if cloud_mm is not None and len(cloud_mm) > 0:
         extent_points.extend([cloud_mm.min(axis=0), cloud_mm.max(axis=0)])
     lo = np.min(extent_points, axis=0)
@@ -144,6 +150,9 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
         d = list(dims)
         for a, b in _box_edges(box_min_mm, box_max_mm):
             ax.plot(*np.stack([a[d], b[d]]).T, color="tab:orange", linewidth=0.8)
+        for edges in obstacle_edges:
+            for a, b in edges:
+                ax.plot(*np.stack([a[d], b[d]]).T, color="tab:gray", linewidth=0.8)
         if cloud_mm is not None:
             _scatter(ax, cloud_mm, d)
         ax.plot(*path_mm[:, d].T, "k--", linewidth=1)
@@ -157,7 +166,7 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
 
     fig.suptitle(
         f"{scene.mode}  |  calibration: {scene.calibration_file}  |  robot base frame, mm; "
-        "axes x red, y green, z blue; dashed: TCP path",
+        "axes x red, y green, z blue; dashed: TCP path; orange: workspace; grey: scene",
         fontsize=10,
     )
     try:
@@ -231,4 +240,18 @@ def _box_edges(
         for k, a in enumerate(corners)
         for b in corners[k + 1 :]
         if np.count_nonzero(a != b) == 1
+    ]
+
+
+def _oriented_box_edges(
+    size_m: NDArray[np.float64], T_base_box: Transform
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The 12 edges of a box of ``size_m`` centred at ``T_base_box`` (m), in base mm."""
+    half = np.asarray(size_m) / 2.0
+    return [
+        (
+            (T_base_box[:3, :3] @ a + T_base_box[:3, 3]) * _M_TO_MM,
+            (T_base_box[:3, :3] @ b + T_base_box[:3, 3]) * _M_TO_MM,
+        )
+        for a, b in _box_edges(-half, half)
     ]

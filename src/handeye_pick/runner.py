@@ -306,6 +306,8 @@ def pick_reply(result: PickResult) -> dict[str, object]:
             "index": result.place_index,
             "pose": ur_pose_list(result.T_base_tcp_place),
         }
+    if result.alternative is not None:
+        reply["alternative"] = result.alternative
     if result.status is Status.MISSED:
         reply["error"] = MISSED_MESSAGE
     return reply

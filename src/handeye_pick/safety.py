@@ -49,7 +49,7 @@ from handeye_pick.robot.port import (
 class CheckResult:
     """One pre-flight check on one target (or on the motion parameters, target "motion")."""
 
-    name: str  # workspace, tilt, safety_limits, ik, speed, grasp_speed, accel, stop_decel
+    name: str  # workspace, tilt, safety_limits, ik, speed, ..., collision (docs/scene.md)
     target: str  # approach, grasp, retreat, ... or "motion"
     passed: bool
     detail: str  # what was measured against what limit

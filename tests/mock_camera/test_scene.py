@@ -99,3 +99,19 @@ def test_a_box_has_its_corners_where_its_pose_puts_them() -> None:
     corners = box.corners_m()
     np.testing.assert_allclose(corners.min(axis=0), [0.8, 1.9, 0.0], atol=1e-12)
     np.testing.assert_allclose(corners.max(axis=0), [1.2, 2.1, 0.1], atol=1e-12)
+
+
+def test_a_bin_is_a_floor_and_four_walls_around_its_inner_floor() -> None:
+    scene = Scene()
+    names = scene.add_bin("b", (0.5, 0.0, 0.01), (0.26, 0.18, 0.10), 0.01, 0.01)
+    assert names == ["b floor", "b wall east", "b wall west", "b wall north", "b wall south"]
+    np.testing.assert_allclose(scene.top_centre_m("b floor"), [0.5, 0.0, 0.01], atol=1e-12)
+    np.testing.assert_allclose(scene.top_centre_m("b wall east"), [0.635, 0.0, 0.11], atol=1e-12)
+    np.testing.assert_allclose(scene.top_centre_m("b wall south"), [0.5, -0.095, 0.11],
+                               atol=1e-12)
+    # A ray straight down through the middle meets the inner floor, one beside it a wall's top.
+    down = np.array([[0.0], [0.0], [-1.0]])
+    floor = scene.boxes["b floor"].hit_distances(np.array([0.5, 0.0, 1.0]), down)
+    wall = scene.boxes["b wall east"].hit_distances(np.array([0.635, 0.0, 1.0]), down)
+    assert floor[0] == pytest.approx(0.99)
+    assert wall[0] == pytest.approx(0.89)

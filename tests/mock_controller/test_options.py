@@ -20,7 +20,7 @@ CASES = [
         inject=("refuse-move", "stall:1.5@move:2:0.5"), remote_control=False,
         allow_non_loopback=True, profile="cb3", tracking=True, seed=7,
         motion_record_path="m.jsonl", part_width_mm=40.5, feedback_input=(16, 3),
-        program_start_s=0.25,
+        program_start_s=0.25, trace_tcp=True,
     ),
     ControllerOptions(initial_flange_pose=(-0.4, -0.1, 0.4, 3.1, 0.0, 0.0), instant=True,
                       profile="polyscope-x"),

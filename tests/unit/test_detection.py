@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
+from handeye_pick.detection import Detection, Symmetry, detection_from_point_mm, load_detection
 from handeye_pick.errors import DetectionError
 from handeye_pick.geometry import rotation_angle_between
 
@@ -111,6 +111,10 @@ def test_rpy_convention_matters(tmp_path: Path) -> None:
         ("orientation: {rotvec_rad: [0, 0, 0]}\n", r": position_mm: missing"),
         ("- 1\n- 2\n", r"top level: expected a mapping"),
         ("position_mm: [1, 2, 300\n", r"not valid YAML"),
+        ("position_mm: [1, 2, 300]\nsize_mm: [0.05, 0.05, 0]\n", r": size_mm: .*metres given"),
+        ("position_mm: [1, 2, 300]\nsymmetry: {axis: z, order: 5}\n", r"symmetry\.order: "),
+        ("position_mm: [1, 2, 300]\nsymmetry: {axis: w, order: 2}\n", r"symmetry\.axis: "),
+        ("position_mm: [1, 2, 300]\nsymmetry: {order: 2}\n", r"symmetry\.axis: missing"),
     ],
 )
 def test_bad_detection_file_is_refused_naming_file_and_key(
@@ -148,3 +152,15 @@ def test_bad_camera_point_is_refused(point: list[float], expected: str) -> None:
     with pytest.raises(DetectionError, match=expected) as info:
         detection_from_point_mm(point, "--xyz")
     assert "--xyz" in str(info.value)
+
+
+def test_size_and_symmetry_are_read_when_given(tmp_path: Path) -> None:
+    text = (
+        "position_mm: [1, 2, 300]\nsize_mm: [80, 60, 50]\nsymmetry: {axis: x, order: inf}\n"
+    )
+    detection = load_detection(_write(tmp_path, text))
+    assert detection.size_mm == (80.0, 60.0, 50.0)
+    assert detection.symmetry == Symmetry("x", 0)
+    plain = load_detection(_write(tmp_path, "position_mm: [1, 2, 300]\n"))
+    assert plain.size_mm is None
+    assert plain.symmetry is None

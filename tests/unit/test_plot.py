@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import matplotlib.image
@@ -11,11 +12,12 @@ import pytest
 from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.plan import chain_plan
 from handeye_pick.config.load import load_config
-from handeye_pick.config.schema import PICK_MOVES
+from handeye_pick.config.schema import PICK_MOVES, BinConfig, SceneConfig
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix
 from handeye_pick.plot import FIGURE_SIZE_PX, Scene, cloud_to_base_m, render_scene
+from handeye_pick.scene.layout import scene_boxes
 
 ROOT = Path(__file__).resolve().parents[2]
 DEMO_CONFIG = ROOT / "config" / "demo.yaml"
@@ -113,3 +115,22 @@ def test_cloud_subsample_drops_missing_points_and_lands_in_base() -> None:
 def test_unwritable_path_is_an_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError, match="scene picture"):
         render_scene(demo_scene(demo_calibration()), tmp_path / "missing" / "scene.png")
+
+
+def test_the_scene_s_boxes_are_drawn_in_grey(tmp_path: Path) -> None:
+    """A bin beside the plan is drawn: grey pixels appear that the plan alone has none of."""
+    calibration = demo_calibration()
+    bin_ = BinConfig("parts", ur_pose_to_matrix([-0.3, 0.2, 0.0, 0, 0, 0]), (300, 200, 150), 10, 10)
+    plain, with_bin = tmp_path / "plain.png", tmp_path / "bin.png"
+    render_scene(demo_scene(calibration), plain)
+    scene = dataclasses.replace(
+        demo_scene(calibration), obstacles=tuple(scene_boxes(SceneConfig(bins=(bin_,))))
+    )
+    render_scene(scene, with_bin)
+
+    def grey(path: Path) -> int:
+        rgb = matplotlib.image.imread(path)[:, :, :3]
+        spread = rgb.max(axis=2) - rgb.min(axis=2)
+        return int(((spread < 0.05) & (rgb[:, :, 0] > 0.35) & (rgb[:, :, 0] < 0.65)).sum())
+
+    assert grey(with_bin) > grey(plain) + 500

@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -23,7 +24,9 @@ from handeye_pick.config.schema import (
     PICK_MOVES,
     PLACE_MOVES,
     CellConfig,
+    GraspConfig,
     PlaceConfig,
+    SceneConfig,
     via_move,
 )
 from handeye_pick.detection import Detection
@@ -40,6 +43,10 @@ from handeye_pick.safety import (
     chain_checks,
     preflight,
 )
+from handeye_pick.scene import alternatives
+
+if TYPE_CHECKING:
+    from handeye_pick.scene.check import SceneCheck
 
 APPROACH, GRASP, RETREAT = PICK_MOVES
 PLACE_APPROACH, PLACE, PLACE_RETREAT = PLACE_MOVES
@@ -196,6 +203,27 @@ def check_steps(
     )
 
 
+def with_scene_checks(
+    config: CellConfig,
+    steps: Sequence[Step],
+    T_base_tcp_start: Transform,
+    T_flange_tcp: Transform,
+    checks: list[CheckResult],
+) -> list[CheckResult]:
+    """``checks`` of a sequence of configured targets and, with a scene, the tool's sweep along
+    it from ``T_base_tcp_start`` (``scene.check.SceneCheck.check_tool``); raises
+    ``PreflightRefusal`` listing them all when a collision check fails."""
+    if config.scene is None:
+        return checks
+    from handeye_pick.scene.check import SceneCheck
+
+    scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
+    results = checks + scene.check_tool(steps, T_base_tcp_start)
+    if not all(r.passed for r in results):
+        raise PreflightRefusal(results)
+    return results
+
+
 def reached_errors(steps: Sequence[Step], reached: dict[str, Transform]) -> dict[str, StepError]:
     """Reached pose vs target for every linear move that ran."""
     return {
@@ -224,10 +252,9 @@ class CandidateRefusal:
     checks: list[CheckResult] = field(default_factory=list)  # every pre-flight check, if run
 
     @classmethod
-    def of(cls, candidate: int, source: str, refusal: PreflightRefusal) -> CandidateRefusal:
+    def of(cls, candidate: int, source: str, results: Sequence[CheckResult]) -> CandidateRefusal:
         """The refusal of one candidate: the checks it failed as its reasons."""
-        failed = [f"{r.target} {r.name}: {r.detail}" for r in refusal.results if not r.passed]
-        return cls(candidate, source, failed, refusal.results)
+        return cls(candidate, source, _failed(results), list(results))
 
 
 class NoFeasibleCandidate(PlanRefused):
@@ -242,13 +269,161 @@ class NoFeasibleCandidate(PlanRefused):
 
 
 @dataclass(frozen=True)
+class AlternativeOutcome:
+    """A grasp alternative of the chosen candidate (docs/scene.md): its turn and tilt, how far
+    it turns the wrist from the TCP at capture, and why it was not taken (empty: taken)."""
+
+    yaw_deg: float
+    tilt_deg: float
+    wrist_turn_deg: float
+    reasons: list[str]
+
+
+@dataclass(frozen=True)
 class Chosen:
-    """The candidate a pick runs: its index, plan, steps and the checks they all passed."""
+    """The candidate a pick runs: its index, plan, steps and the checks they all passed; with
+    a scene, the grasp alternative taken and those that were not."""
 
     index: int
     plan: PickPlan
     steps: list[Step]
     checks: list[CheckResult]
+    alternative: AlternativeOutcome | None = None  # None: no scene, the detected grasp
+    others: list[AlternativeOutcome] = field(default_factory=list)
+
+    def alternative_fields(self) -> dict[str, object] | None:
+        """The grasp alternative taken and why the others were not, as the reply, the
+        ``--json`` report and the audit's plan record carry it; None without a scene."""
+        if self.alternative is None:
+            return None
+        taken = self.alternative
+        return {
+            "yaw_deg": round(taken.yaw_deg, 3),
+            "tilt_deg": round(taken.tilt_deg, 3),
+            "wrist_turn_deg": round(taken.wrist_turn_deg, 3),
+            "others": [
+                {
+                    "yaw_deg": round(o.yaw_deg, 3),
+                    "tilt_deg": round(o.tilt_deg, 3),
+                    "wrist_turn_deg": round(o.wrist_turn_deg, 3),
+                    "reasons": o.reasons,
+                }
+                for o in self.others
+            ],
+        }
+
+    def alternative_record(self) -> dict[str, object]:
+        """``{"alternative": ...}`` for the plan record; empty without a scene (as before)."""
+        fields = self.alternative_fields()
+        return {} if fields is None else {"alternative": fields}
+
+
+def _failed(results: Sequence[CheckResult]) -> list[str]:
+    return [f"{r.target} {r.name}: {r.detail}" for r in results if not r.passed]
+
+
+@dataclass(frozen=True)
+class _Trial:
+    """What ``choose`` needs to try one candidate."""
+
+    config: CellConfig
+    arm: RobotArm
+    verdicts: ControllerVerdicts
+    T_base_tcp_start: Transform
+    T_base_tcp_place: Transform | None
+    grip: bool
+    blend: bool
+    scene: SceneCheck | None
+
+    def sequence(self, plan: PickPlan) -> list[Step]:
+        """The pick of ``plan`` and, when the cell places, its place; corners blended."""
+        steps = pick_steps(plan, grip=self.grip)
+        if self.T_base_tcp_place is not None and self.config.place is not None:
+            steps += place_steps(self.T_base_tcp_place, self.config.place, grip=self.grip)
+        if self.blend:
+            steps = blended(self.config, steps, self.T_base_tcp_start)
+        return steps
+
+    def preflight(self, steps: Sequence[Step]) -> list[CheckResult]:
+        return check_steps(self.config, steps, self.arm, self.verdicts, self.T_base_tcp_start)
+
+
+def _with_grasp(plan: PickPlan, T_base_tcp_grasp: Transform, grasp: GraspConfig) -> PickPlan:
+    """``plan`` with another grasp target, its approach and retreat backed off along it."""
+    return replace(
+        plan,
+        approach=backed_off(T_base_tcp_grasp, grasp.approach_mm / 1000.0),
+        grasp=T_base_tcp_grasp,
+        retreat=backed_off(T_base_tcp_grasp, grasp.retreat_mm / 1000.0),
+    )
+
+
+def _relabelled(results: Sequence[CheckResult], label: str) -> list[CheckResult]:
+    return [replace(r, target=f"{r.target} ({label})") for r in results]
+
+
+def _try_alternatives(
+    trial: _Trial, scene: SceneCheck, index: int, detection: Detection, plan: PickPlan
+) -> tuple[Chosen | None, list[CheckResult]]:
+    """The grasp alternatives of one candidate in their order (``scene.alternatives``): the
+    first tier with one passing every check gives the one that turns the wrist least; else
+    None and every alternative's results, each target labelled with its alternative."""
+    config = trial.config
+    grasp = config.grasp
+    part_size = detection.size_mm if detection.size_mm is not None else grasp.part_size_mm
+    tiers = alternatives.tiers(
+        plan.T_base_obj,
+        plan.grasp,
+        detection.symmetry,
+        config.scene or SceneConfig(),
+        grasp.tilt_max_deg,
+        grasp.symmetry_step_deg,
+    )
+    R_start = trial.T_base_tcp_start[:3, :3]
+    labelled = sum(len(tier) for tier in tiers) > 1  # one alternative: the detected grasp
+    others: list[AlternativeOutcome] = []
+    results: list[CheckResult] = []
+    for tier in tiers:
+        passing = []
+        for alt in tier:
+            turn = math.degrees(rotation_angle_between(R_start, alt.T_base_tcp[:3, :3]))
+            alt_plan = _with_grasp(plan, alt.T_base_tcp, grasp)
+            early = scene.descent_refusal(alt_plan.approach, alt.T_base_tcp)
+            if early is not None:  # the tool at the grasp is in the way: no sequence to build
+                others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed([early])))
+                results += _relabelled([early], alt.label()) if labelled else [early]
+                continue
+            steps = trial.sequence(alt_plan)
+            collision = scene.check(
+                steps, trial.T_base_tcp_start, part_size, plan.T_base_obj, alt.T_base_tcp
+            )
+            if all(r.passed for r in collision):
+                passing.append((turn, alt, alt_plan, steps, collision))
+                continue
+            others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed(collision)))
+            results += _relabelled(collision, alt.label()) if labelled else collision
+        passing.sort(key=lambda trial_: trial_[0])
+        for rank, (turn, alt, alt_plan, steps, collision) in enumerate(passing):
+            try:
+                checks = collision + trial.preflight(steps)
+            except PreflightRefusal as refusal:
+                failed = collision + refusal.results
+                others.append(AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, _failed(failed)))
+                results += _relabelled(failed, alt.label()) if labelled else failed
+                continue
+            others += [
+                AlternativeOutcome(
+                    later.yaw_deg,
+                    later.tilt_deg,
+                    later_turn,
+                    [f"clear of the scene, not asked of the controller: turns the wrist "
+                     f"{later_turn:.1f} deg, more than the {turn:.1f} deg taken"],
+                )
+                for later_turn, later, *_ in passing[rank + 1 :]
+            ]
+            taken = AlternativeOutcome(alt.yaw_deg, alt.tilt_deg, turn, [])
+            return Chosen(index, alt_plan, steps, checks, taken, others), results
+    return None, results
 
 
 def choose(
@@ -268,7 +443,9 @@ def choose(
 ) -> tuple[Chosen, list[CandidateRefusal]]:
     """The first candidate whose whole sequence (the pick, then the place at
     ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
-    and the refusals of those before it.
+    and the refusals of those before it. With a scene (``config.scene``), the sequence must
+    also keep clear of it (``handeye_pick.scene``), and a candidate's grasp alternatives are
+    tried before it is refused.
 
     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
     ``grip`` False leaves the gripper out of the steps (a touch test), ``blend`` False keeps
@@ -276,6 +453,21 @@ def choose(
     ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
     (every check listed) when there was only one.
     """
+    scene = None
+    if config.scene is not None:  # python-fcl is imported only by a cell that has a scene
+        from handeye_pick.scene.check import SceneCheck
+
+        scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
+    trial = _Trial(
+        config,
+        arm,
+        verdicts,
+        compose(T_base_flange, T_flange_tcp),
+        T_base_tcp_place,
+        grip,
+        blend,
+        scene,
+    )
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):
         plan = chain_plan(
@@ -283,21 +475,22 @@ def choose(
         )
         if on_plan is not None:
             on_plan(plan)
-        steps = pick_steps(plan, grip=grip)
-        if T_base_tcp_place is not None and config.place is not None:
-            steps += place_steps(T_base_tcp_place, config.place, grip=grip)
-        T_base_tcp_start = compose(T_base_flange, T_flange_tcp)
-        if blend:
-            steps = blended(config, steps, T_base_tcp_start)
         plausible = chain_checks(config, calibration, detection.T_cam_obj, T_base_flange)
-        try:
-            if not all(check.passed for check in plausible):
-                raise PreflightRefusal(plausible)  # nothing asked of the controller
-            checks = plausible + check_steps(config, steps, arm, verdicts, T_base_tcp_start)
-        except PreflightRefusal as refusal:
-            refusals.append(CandidateRefusal.of(index, detection.source, refusal))
+        if not all(check.passed for check in plausible):  # nothing asked of the controller
+            refusals.append(CandidateRefusal.of(index, detection.source, plausible))
             continue
-        return Chosen(index, plan, steps, checks), refusals
+        if trial.scene is None:
+            steps = trial.sequence(plan)
+            try:
+                checks = plausible + trial.preflight(steps)
+            except PreflightRefusal as refusal:
+                refusals.append(CandidateRefusal.of(index, detection.source, refusal.results))
+                continue
+            return Chosen(index, plan, steps, checks), refusals
+        chosen, results = _try_alternatives(trial, trial.scene, index, detection, plan)
+        if chosen is not None:
+            return replace(chosen, checks=plausible + chosen.checks), refusals
+        refusals.append(CandidateRefusal.of(index, detection.source, results))
     if len(refusals) == 1:  # one detection: its own refusal says it best, every check listed
         raise PreflightRefusal(refusals[0].checks)
     raise NoFeasibleCandidate(refusals)

@@ -80,11 +80,7 @@ def plan_record(
     return {
         "config": str(config.path),
         "host": config.robot.host,
-        "detection": {
-            "source": detection.source,
-            "position_only": detection.position_only,
-            "T_cam_obj": plan_matrix(detection.T_cam_obj),
-        },
+        "detection": _detection_record(detection),
         "calibration": {
             "file": str(calibration.path),
             "sha256": calibration.sha256,
@@ -103,6 +99,21 @@ def plan_record(
             "accel_mps2": motion.accel_mps2,
         },
     }
+
+
+def _detection_record(detection: Detection) -> dict[str, object]:
+    """The detection as the plan record holds it; its size and symmetry only when given."""
+    record: dict[str, object] = {
+        "source": detection.source,
+        "position_only": detection.position_only,
+        "T_cam_obj": plan_matrix(detection.T_cam_obj),
+    }
+    if detection.size_mm is not None:
+        record["size_mm"] = list(detection.size_mm)
+    if detection.symmetry is not None:
+        order = detection.symmetry.order
+        record["symmetry"] = {"axis": detection.symmetry.axis, "order": order or "inf"}
+    return record
 
 
 def steps_record(steps: Sequence[Step]) -> dict[str, object]:

@@ -59,6 +59,7 @@ from handeye_pick.cell.plan import (
     describe_plan,
     place_steps,
     reached_errors,
+    with_scene_checks,
 )
 from handeye_pick.cell.records import (
     append_failure,
@@ -125,6 +126,8 @@ class PickResult:
     place_index: int | None  # which place pose (None: no place)
     T_base_tcp_place: Transform | None
     cycle_s: float  # wall time of the pick call
+    # With a scene: the grasp alternative taken and why the others were not (Chosen's record)
+    alternative: dict[str, object] | None = None
 
 
 @dataclass(frozen=True)
@@ -665,7 +668,7 @@ class Cell:
                 on_plan=planned,
             )
         except PreflightRefusal as refusal:  # one candidate, refused
-            refused = CandidateRefusal.of(0, pick.detections[0].source, refusal)
+            refused = CandidateRefusal.of(0, pick.detections[0].source, refusal.results)
             self._tell_candidates(plans, None, [refused])
             raise
         except NoFeasibleCandidate as none:
@@ -694,6 +697,7 @@ class Cell:
                 "candidate": chosen.index,
                 **record,
                 "place_index": pick.place_index,
+                **chosen.alternative_record(),
             },
             compose(T_base_flange, T_flange_tcp),
         )
@@ -749,8 +753,12 @@ class Cell:
         def prepare(
             T_flange_tcp: Transform, context: dict[str, object], outcome: dict[str, object]
         ) -> Planned:
-            # Where the arm stands is read only when corners are rounded (blend_mm > 0).
-            T_base_tcp_start = self.arm.tcp_pose() if self.config.motion.blend_mm > 0 else None
+            # Where the arm stands is read only when corners are rounded (blend_mm > 0) or the
+            # path is swept against a scene.
+            swept = self.config.scene is not None
+            T_base_tcp_start = (
+                self.arm.tcp_pose() if self.config.motion.blend_mm > 0 or swept else None
+            )
             rounded = (
                 blended(self.config, steps, T_base_tcp_start)
                 if T_base_tcp_start is not None
@@ -759,6 +767,10 @@ class Cell:
             checks = check_steps(
                 self.config, rounded, self.arm, self._fixed_verdicts, T_base_tcp_start
             )
+            if T_base_tcp_start is not None:
+                checks = with_scene_checks(
+                    self.config, rounded, T_base_tcp_start, T_flange_tcp, checks
+                )
             plan = {"operation": what, "config": str(self.config.path)}
             return Planned(
                 rounded, checks, {**plan, "host": self.config.robot.host}, T_base_tcp_start
@@ -910,6 +922,7 @@ class _PickRun:
             place_index=self.place_index,
             T_base_tcp_place=_place_pose(chosen.steps) if self.place_index is not None else None,
             cycle_s=cycle_s,
+            alternative=chosen.alternative_fields(),
         )
 
 

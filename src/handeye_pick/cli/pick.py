@@ -102,6 +102,7 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             print_json(report)
         raise
+    report.update(plan_fields(result.plan))  # a grasp alternative has targets of its own
     report.update(
         status=result.status,
         pick_id=result.pick_id,
@@ -110,6 +111,8 @@ def run(args: argparse.Namespace) -> int:
         reached={name: ur_pose_list(T) for name, T in result.reached.items()},
         errors={name: asdict(error) for name, error in result.errors.items()},
     )
+    if result.alternative is not None:
+        report["alternative"] = result.alternative
     if result.T_base_tcp_place is not None:
         report["place"] = {
             "index": result.place_index,
@@ -147,6 +150,11 @@ def _print_summary(result: PickResult, audit_file: str) -> None:
         f"  flange pose  {_fmt(plan.T_base_flange)} ({result.capture.source})",
         f"  object       {_fmt(plan.T_base_obj)}",
     ]
+    if result.alternative is not None:
+        lines.append(
+            f"  grasp        turned {result.alternative['yaw_deg']} deg about the part's "
+            f"symmetry axis, tilted {result.alternative['tilt_deg']} deg (docs/scene.md)"
+        )
     for name, T_target in plan.targets().items():
         lines.append(_step_line(name, T_target, result.errors))
     if result.T_base_tcp_place is not None:

@@ -58,6 +58,7 @@ def run_plan(args: argparse.Namespace) -> int:
     from handeye_pick.cloud.files import read_cloud
     from handeye_pick.geometry import compose
     from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
+    from handeye_pick.scene.layout import scene_boxes
 
     cell = Cell(args.config, progress=progress_from_args(args))
     config, calibration = cell.config, cell.calibration
@@ -85,6 +86,7 @@ def run_plan(args: argparse.Namespace) -> int:
         workspace_min_m=_mm_to_m(config.workspace.min_mm),
         workspace_max_m=_mm_to_m(config.workspace.max_mm),
         cloud_base_m=cloud_base_m,
+        obstacles=tuple(scene_boxes(config.scene)) if config.scene is not None else (),
     )
     render_scene(scene, args.plot)
     outside = cell.outside_workspace(plan)

@@ -50,6 +50,10 @@ def run_status(args: argparse.Namespace) -> int:
     cell = Cell(args.config, progress=progress_from_args(args))
     config = cell.config
     report: dict[str, object] = {"config": str(config.path), "host": config.robot.host}
+    if config.scene is not None:
+        from handeye_pick.scene.layout import describe_scene
+
+        report["scene"] = describe_scene(config.scene, len(config.tool_shape))
     state = cell.inspect()
     report.update(_status_fields(cell, state))
     _print_status(report, state.problems, args.json)
@@ -108,6 +112,7 @@ def _print_status(report: dict[str, object], problems: list[str], as_json: bool)
         ("program_state", "program"),
         ("loaded_program", "loaded program"),
         ("remote_control", "remote control"),
+        ("scene", "scene"),
         ("tcp_offset", "TCP offset"),
         ("tcp_offset_configured", "TCP in config"),
         ("tcp_offset_matches", "TCP matches"),

@@ -18,6 +18,7 @@ from handeye_pick.config.payload import read_object
 from handeye_pick.config.poses import read_capture, read_grasp, read_place, read_poses
 from handeye_pick.config.reader import Fields, read_yaml_mapping
 from handeye_pick.config.robot import read_robot
+from handeye_pick.config.scene import read_scene, read_tool_shape
 from handeye_pick.config.schema import (
     PICK_MOVES,
     STRAIGHT_MM_DEFAULT,
@@ -42,6 +43,8 @@ _SECTIONS = (
     "place",
     "capture",
     "object",
+    "scene",
+    "tool",
 )
 
 
@@ -75,6 +78,14 @@ def load_config(path: Path) -> CellConfig:
             "a part's payload needs the empty tool's too: set robot.tool_payload "
             "{mass_kg, cog_mm} (as on the pendant's payload screen), restored after each release",
         )
+    scene = read_scene(top) if top.has("scene") else None
+    tool_shape = read_tool_shape(top) if top.has("tool") else ()
+    if (scene is None) != (not tool_shape):
+        top.fail(
+            "scene" if scene is None else "tool",
+            "the collision check needs both scene (what to keep clear of) and tool.shape "
+            "(what moves): give both, or neither",
+        )
     return CellConfig(
         robot=robot,
         hand_eye=hand_eye,
@@ -87,6 +98,8 @@ def load_config(path: Path) -> CellConfig:
         place=place,
         capture=capture,
         object=part,
+        scene=scene,
+        tool_shape=tool_shape,
     )
 
 

@@ -33,6 +33,14 @@ NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 _STANDOFF = Number("mm", minimum=MIN_STANDOFF_MM, maximum=MAX_STANDOFF_MM)
 _STANDOFFS = {"approach_mm": _STANDOFF, "retreat_mm": _STANDOFF}  # of the grasp and the place
 _STRAIGHT = Number("mm", minimum=0.0, maximum=MAX_STANDOFF_MM)
+_ALTERNATIVES = {
+    "tilt_max_deg": Number("deg", minimum=0.0, maximum=45.0, default=GraspConfig.tilt_max_deg),
+    # At least 5 deg: with the largest tilt, at most 72 turns x 10 tilts = 720 alternatives
+    "symmetry_step_deg": Number(
+        "deg", minimum=5.0, maximum=180.0, default=GraspConfig.symmetry_step_deg
+    ),
+}
+MAX_PART_MM = 1000.0  # a held part bigger than a metre is one written in the wrong unit
 _CAPTURE_NUMBERS = {
     "steady_timeout_s": Number(
         "s", above=0.0, maximum=30.0, default=CaptureConfig.steady_timeout_s
@@ -92,9 +100,12 @@ def named_pose(pose: Fields, name: str) -> NamedPose:
 
 
 def read_grasp(top: Fields, default_straight_mm: float) -> GraspConfig:
-    """``grasp``: the approach and retreat standoffs (mm), ``object_T_tcp`` (m, rad) and
-    ``straight_mm`` (mm; ``default_straight_mm`` when absent, set by the kind of gripper)."""
-    grasp = top.section("grasp", (*_STANDOFFS, "object_T_tcp", "straight_mm"))
+    """``grasp``: the approach and retreat standoffs (mm), ``object_T_tcp`` (m, rad),
+    ``straight_mm`` (mm; ``default_straight_mm`` when absent, set by the kind of gripper), and
+    for a cell with a scene the grasp alternatives and the held part's size (docs/scene.md)."""
+    grasp = top.section(
+        "grasp", (*_STANDOFFS, "object_T_tcp", "straight_mm", "part_size_mm", *_ALTERNATIVES)
+    )
     straight = {"straight_mm": replace(_STRAIGHT, default=default_straight_mm)}
     return GraspConfig(
         approach_mm=grasp.number("approach_mm", _STANDOFFS),
@@ -105,7 +116,21 @@ def read_grasp(top: Fields, default_straight_mm: float) -> GraspConfig:
             else np.eye(4)
         ),
         straight_mm=grasp.number("straight_mm", straight),
+        tilt_max_deg=grasp.number("tilt_max_deg", _ALTERNATIVES),
+        symmetry_step_deg=grasp.number("symmetry_step_deg", _ALTERNATIVES),
+        part_size_mm=_part_size(grasp) if grasp.has("part_size_mm") else None,
     )
+
+
+def _part_size(grasp: Fields) -> tuple[float, float, float]:
+    """``part_size_mm``: the held part's box (mm), three lengths in (0, ``MAX_PART_MM``]."""
+    size = grasp.vector("part_size_mm", 3)
+    if not all(0.0 < v <= MAX_PART_MM for v in size):
+        grasp.fail(
+            "part_size_mm",
+            f"every size must lie in (0, {MAX_PART_MM:g}] mm, got {size.tolist()} (metres given?)",
+        )
+    return float(size[0]), float(size[1]), float(size[2])
 
 
 def read_place(top: Fields, poses: tuple[NamedPose, ...]) -> PlaceConfig:

@@ -96,6 +96,12 @@ class GraspConfig:
     T_obj_tcp: Transform = field(default_factory=lambda: np.eye(4))  # TCP at grasp in object frame
     # The last part of every descent and the first of every ascent that no blend cuts into (mm)
     straight_mm: float = STRAIGHT_MM_DEFAULT
+    # Grasp alternatives (docs/scene.md): the largest tilt of the approach towards the bin's
+    # centre (deg, 0: none), the yaw step of a part symmetric about an axis by any angle (deg)
+    tilt_max_deg: float = 0.0
+    symmetry_step_deg: float = 15.0
+    # The held part's box (mm, in the object frame) when a detection gives no size_mm
+    part_size_mm: tuple[float, float, float] | None = None
 
 
 @dataclass(frozen=True)
@@ -173,6 +179,51 @@ class CaptureConfig:
 
 
 @dataclass(frozen=True)
+class SceneBox:
+    """A box obstacle: edge lengths ``size_mm`` along its own axes, its centre at ``T_base_box``
+    (m). A bin's floor and walls are such boxes, named after the bin."""
+
+    name: str  # as refusals name it: "box 'column'", "bin 'parts' wall 'east'"
+    size_mm: tuple[float, float, float]
+    T_base_box: Transform  # the box's centre and axes in the base frame (m)
+
+
+@dataclass(frozen=True)
+class BinConfig:
+    """A bin: its inner floor's centre and axes ``T_base_bin`` (m; z up out of the bin), the
+    inner size and the thickness of its walls and floor (mm)."""
+
+    name: str
+    T_base_bin: Transform  # centre of the inner floor, x and y along the walls, z up (m)
+    inner_mm: tuple[float, float, float]  # inner length (x), width (y) and wall height (z)
+    wall_mm: float
+    floor_mm: float
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """What the tool must keep clear of: bins, box obstacles (fixtures, columns, a conveyor)
+    and the floor or table plane, and the distance kept from all of them (mm)."""
+
+    bins: tuple[BinConfig, ...] = ()
+    boxes: tuple[SceneBox, ...] = ()
+    floor_z_mm: float | None = None  # the table or floor plane in the base frame; None: none
+    clearance_mm: float = 5.0
+
+
+@dataclass(frozen=True)
+class ToolShape:
+    """One solid of the tool in the flange frame: a box (``size_mm``) or a cylinder
+    (``radius_mm``, ``length_mm`` along its own z), centred at ``T_flange_shape`` (m)."""
+
+    name: str  # as refusals name it: "tool 'fingers'"
+    T_flange_shape: Transform  # the solid's centre and axes in the flange frame (m)
+    size_mm: tuple[float, float, float] | None = None  # a box's edge lengths
+    radius_mm: float | None = None  # a cylinder's radius ...
+    length_mm: float | None = None  # ... and length along its z
+
+
+@dataclass(frozen=True)
 class CellConfig:
     """The whole cell configuration, as loaded from ``path``."""
 
@@ -187,6 +238,8 @@ class CellConfig:
     place: PlaceConfig | None = None  # None: a pick ends holding the part ("picked")
     capture: CaptureConfig = field(default_factory=CaptureConfig)
     object: ObjectConfig | None = None  # None: the payload is never changed
+    scene: SceneConfig | None = None  # None (and no tool shape): no collision check
+    tool_shape: tuple[ToolShape, ...] = ()  # the tool's solids in the flange frame
 
     def pose(self, name: str) -> NamedPose:
         """The named pose ``name``; ConfigError naming the known ones when it is not defined."""

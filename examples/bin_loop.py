@@ -1,0 +1,197 @@
+"""A vision client emptying a bin through `handeye-pick run`, every move checked against the bin.
+
+Starts the simulated UR5e controller (with --trace-tcp: the motion record keeps the TCP pose of
+every cycle), builds a simulated scene with the bin of config/bin.yaml and six 50 mm cubes in it
+(two against walls, one in a corner, one turned, ...), watched by the wrist camera of
+config/loop/hand_eye.yaml, starts
+
+    handeye-pick run --config config/bin.yaml
+
+and, until the bin is empty or every cube left is refused: captures at the pose `capture`,
+finds the cubes' top faces in the cloud (points inside the bin's inner footprint and clearly
+above its floor), sends every cube as a candidate with its orientation, size and symmetry (a
+cube looks the same turned 90 degrees about its vertical), and takes the one picked out of the
+scene. Then mocks/contact_check.py replays the driven TCP poses with the tool's shape against the
+bin: zero contacts. Prints one line per cycle, the refusals, the contact count and a summary;
+exits 0 when every cube was picked or refused with its reason and nothing touched the bin.
+
+Run it from anywhere after `pip install -e .`:  python examples/bin_loop.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+from scipy import ndimage
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from here
+
+from vision_loop import (  # noqa: E402  (this folder is on the path when the script runs)
+    INTRINSICS,
+    Cloud,
+    RunSession,
+    read_cell,
+)
+
+from mocks.camera import Scene, SimulatedCamera, read_zivid_matrix  # noqa: E402
+from mocks.contact_check import count_contacts  # noqa: E402
+from mocks.ur_controller import SimulatedController  # noqa: E402
+from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
+
+CONFIG = ROOT / "config" / "bin.yaml"
+SPEED_FACTOR = 4.0
+MAX_CYCLES = 10
+CUBE_M = 0.05
+# Cubes in the bin: (x, y) of the centre from the bin's centre (m) and the turn about z (deg).
+# Against a wall with 8 mm to spare the fingers fit only along it; in a corner they fit nowhere.
+CUBES: dict[str, tuple[float, float, float]] = {
+    "middle": (0.0, 0.0, 20.0),
+    "east": (0.130 - 0.025 - 0.008, -0.030, 0.0),
+    "north": (-0.060, 0.090 - 0.025 - 0.008, 0.0),
+    "west": (-0.130 + 0.025 + 0.008, 0.020, 0.0),
+    "south": (0.040, -0.090 + 0.025 + 0.008, -15.0),
+    "corner": (0.130 - 0.025 - 0.008, 0.090 - 0.025 - 0.008, 0.0),
+}
+# Cube finding
+WALL_MARGIN_M = 0.003  # points this close to a wall's inside are the wall's
+MIN_HEIGHT_M = 0.010  # points this far above the bin floor belong to a cube
+TOP_FACE_BAND_M = 0.001
+MIN_PIXELS = 50
+
+
+class Bin:
+    """The bin as config/bin.yaml gives it: its inner floor centre (base, m) and inner size."""
+
+    def __init__(self, config: Path) -> None:
+        entry = yaml.safe_load(config.read_text())["scene"]["bins"][0]
+        self.name = str(entry["name"])
+        self.centre_m = np.array(entry["pose"][:3], dtype=float)
+        self.inner_m = np.array(entry["inner_mm"], dtype=float) / 1000.0
+        self.wall_m = float(entry["wall_mm"]) / 1000.0
+        self.floor_m = float(entry["floor_mm"]) / 1000.0
+
+
+def build_scene(bin_: Bin) -> Scene:
+    scene = Scene(table_height_m=0.0)
+    scene.add_bin(bin_.name, tuple(bin_.centre_m), tuple(bin_.inner_m), bin_.wall_m,
+                  bin_.floor_m)
+    for name, (x, y, yaw_deg) in CUBES.items():
+        T = scene.on_table(bin_.centre_m[0] + x, bin_.centre_m[1] + y, math.radians(yaw_deg))
+        T[2, 3] = bin_.centre_m[2]
+        scene.add_box(name, (CUBE_M, CUBE_M, CUBE_M), T)
+    return scene
+
+
+def find_cubes(cloud_mm: Cloud, T_base_cam: np.ndarray, bin_: Bin) -> list[dict[str, object]]:
+    """The cubes' top faces as candidate detections (camera frame, mm): centre, the turn about
+    the viewing axis from the face's corners, the size and the symmetry."""
+    points = cloud_mm.astype(np.float64) / 1000.0
+    base = points @ T_base_cam[:3, :3].T + T_base_cam[:3, 3]
+    local = base - bin_.centre_m
+    half = bin_.inner_m[:2] / 2.0 - WALL_MARGIN_M
+    inside = (np.abs(local[..., 0]) < half[0]) & (np.abs(local[..., 1]) < half[1])
+    height = np.where(inside, local[..., 2], np.nan)
+    labels, count = ndimage.label(np.nan_to_num(height, nan=0.0) > MIN_HEIGHT_M)
+    found = []
+    for label in range(1, count + 1):
+        blob = labels == label
+        if blob.sum() < MIN_PIXELS:
+            continue
+        top = blob & (height > np.nanmax(height[blob]) - TOP_FACE_BAND_M)
+        face = cloud_mm[top].astype(np.float64)
+        centre = face.mean(axis=0)
+        offsets = face[:, :2] - centre[:2]
+        corner = offsets[np.argmax(np.einsum("ij,ij->i", offsets, offsets))]
+        # A square's corner lies 45 deg from its edges; a cube's turn is known modulo 90 deg.
+        yaw = math.atan2(corner[1], corner[0]) % (math.pi / 2.0) - math.pi / 4.0
+        found.append({
+            "position_mm": [round(float(v), 3) for v in centre],
+            "orientation": {"rotvec_rad": [0.0, 0.0, round(yaw, 6)]},
+            "size_mm": [CUBE_M * 1000.0] * 3,
+            "symmetry": {"axis": "z", "order": 4},
+        })
+    return found
+
+
+def nearest_cube(scene: Scene, point_m: np.ndarray) -> str:
+    cubes = {name: box for name, box in scene.boxes.items() if name in CUBES}
+    return min(cubes, key=lambda n: float(np.linalg.norm(cubes[n].top_centre_m() - point_m)))
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--config", type=Path, default=CONFIG, help="cell config (bin.yaml)")
+    parser.add_argument("--speed-factor", type=float, default=SPEED_FACTOR,
+                        help="the simulated arm moves this many times faster than real time")
+    args = parser.parse_args(argv)
+    config = args.config.resolve()
+    cell, bin_ = read_cell(config), Bin(config)
+    scene = build_scene(bin_)
+    T_flange_cam = read_zivid_matrix(cell.hand_eye_file)
+    T_flange_cam[:3, 3] /= 1000.0
+    camera = SimulatedCamera(scene, INTRINSICS, T_flange_cam=T_flange_cam)
+    started = time.monotonic()
+    problems: list[str] = []
+    refused: list[str] = []
+    picked: list[str] = []
+    with SimulatedController(host=cell.host, tcp_offset=cell.tcp_offset,
+                             speed_factor=args.speed_factor, trace_tcp=True) as controller:
+        run = RunSession(config)
+        try:
+            for cycle in range(1, MAX_CYCLES + 1):
+                capture = run.request("capture", pose="capture")
+                if not capture.get("ok"):
+                    problems.append(f"capture failed: {capture.get('error')}")
+                    break
+                T_base_cam = pose_to_matrix(capture["flange_pose_ur"]) @ T_flange_cam
+                candidates = find_cubes(camera.capture_from(controller), T_base_cam, bin_)
+                if not candidates:
+                    break  # the bin is empty
+                pick = run.request("pick", capture_id=capture["capture_id"],
+                                   candidates=candidates)
+                if pick.get("status") in ("refused", "no-candidate"):  # nothing moved
+                    refused = [f"candidate {r['candidate']}: {'; '.join(r['reasons'])}"
+                               for r in pick.get("refused", [])] or [str(pick.get("error"))]
+                    break
+                if pick.get("status") != "placed":
+                    problems.append(f"pick ended {pick.get('status')}: {pick.get('error')}")
+                    break
+                name = nearest_cube(scene, pose_to_matrix(pick["targets"]["grasp"])[:3, 3])
+                scene.remove_box(name)
+                picked.append(name)
+                alternative = pick.get("alternative", {})
+                print(f"cycle {cycle}: {len(candidates)} cubes seen, picked '{name}' (candidate "
+                      f"{pick['candidate']}, turned {alternative.get('yaw_deg')} deg, tilted "
+                      f"{alternative.get('tilt_deg')} deg), {pick['cycle_s']:.1f} s", flush=True)
+        except RuntimeError as exc:  # no reply, or not the one asked for
+            problems.append(str(exc))
+        finally:
+            status = run.close()
+        contacts = count_contacts(config, controller.motions)
+    if status != 0:
+        problems.append(f"handeye-pick run exited with status {status}")
+    left = sorted(set(CUBES) - set(picked))
+    if bool(refused) != bool(left) and not problems:
+        problems.append(f"cubes left {left} but the refusals say {refused}")
+    for reason in refused:
+        print(f"refused {reason}")
+    print(f"contact check: {contacts.line()}")
+    if contacts.contacts or contacts.samples == 0:
+        problems.append("the tool touched the bin" if contacts.contacts else "nothing replayed")
+    for problem in problems:
+        print(f"FAILED {problem}", file=sys.stderr)
+    verdict = "every check passed" if not problems else f"{len(problems)} checks FAILED"
+    print(f"{len(picked)} of {len(CUBES)} cubes picked ({', '.join(picked)}), left: "
+          f"{', '.join(left) or 'none'}; {verdict}; {time.monotonic() - started:.1f} s in all")
+    return 1 if problems else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
