@@ -10,6 +10,7 @@ import base64
 import json
 import signal
 import struct
+import time
 from pathlib import Path
 from typing import Any
 
@@ -172,10 +173,24 @@ def test_a_killed_recorder_leaves_a_file_that_reads_up_to_its_last_chunk(
     with loop(loop_config(tmp_path, ctl.host), "--record", str(record)) as run:
         assert run.ask({"id": "m", "op": "move", "pose": "home"})["ok"]
         assert run.ask({"id": "a", "op": "move", "pose": "aside"})["ok"]
+        # The recorder writes from its own thread and closes a chunk at least once a second:
+        # wait (bounded) until every audit record is in a complete chunk, then kill.
+        audited = len(audit_records(tmp_path))
+        deadline = time.monotonic() + 20.0
+        while _readable_topics(record).count("/cell/audit") < audited:
+            assert time.monotonic() < deadline, "the audit records never reached a chunk"
+            time.sleep(0.1)
         run.process.send_signal(signal.SIGKILL)
         run.process.wait()
     with record.open("rb") as file, pytest.raises(McapError):
         list(make_reader(file).iter_messages())  # no footer, no index
+    topics = _readable_topics(record)
+    assert topics.count("/cell/audit") == audited >= 4  # nothing torn before the kill
+    assert "/tf" in topics
+
+
+def _readable_topics(record: Path) -> list[str]:
+    """The topic of every message in the file's complete chunks, in order."""
     topics, channels = [], {}
     with record.open("rb") as file:
         try:
@@ -186,9 +201,7 @@ def test_a_killed_recorder_leaves_a_file_that_reads_up_to_its_last_chunk(
                     topics.append(channels[item.channel_id])
         except McapError:
             pass  # the torn end after the last complete chunk
-    # Every audit record written before the kill is in a complete chunk.
-    assert topics.count("/cell/audit") == len(audit_records(tmp_path)) >= 4
-    assert "/tf" in topics
+    return topics
 
 
 # --- the live view --------------------------------------------------------------------------

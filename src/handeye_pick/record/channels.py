@@ -42,6 +42,7 @@ from handeye_pick.cell.plan import CandidateRefusal, PickPlan, step_error
 from handeye_pick.cell.steps import Move, Step
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.geometry import Transform, rotation_from_quaternion
+from handeye_pick.scene.layout import scene_boxes
 
 BASE, FLANGE, TCP, CAM = "base", "flange", "tcp", "cam"
 CAPTURE_FLANGE, CAPTURE_CAM = "capture_flange", "capture_cam"
@@ -56,6 +57,7 @@ UNTRIED = Color(r=0.6, g=0.6, b=0.6, a=1.0)
 PATH = Color(r=0.2, g=0.5, b=1.0, a=1.0)
 REACHED = Color(r=1.0, g=0.75, b=0.0, a=1.0)
 WORKSPACE = Color(r=0.3, g=0.6, b=1.0, a=0.08)
+OBSTACLE = Color(r=0.55, g=0.55, b=0.55, a=0.6)
 
 
 def _turn(qx: float, qy: float, qz: float, qw: float) -> Transform:
@@ -261,8 +263,33 @@ def reached_update(
 
 
 def scene_entities(config: CellConfig, time_ns: int) -> list[SceneEntity]:
-    """What stands in the cell, in ``base``: the workspace box every target must lie in.
-    (Bins, fixtures and the tool's shape are added here once the config describes them.)"""
+    """What stands in the cell, in ``base``: the workspace box every target must lie in, and
+    the scene's bins (floor and walls) and boxes, labelled as the collision check names them."""
+    return _workspace_entities(config, time_ns) + _obstacle_entities(config, time_ns)
+
+
+def _obstacle_entities(config: CellConfig, time_ns: int) -> list[SceneEntity]:
+    if config.scene is None:
+        return []
+    return [
+        SceneEntity(
+            timestamp=stamp(time_ns),
+            frame_id=BASE,
+            id=name,
+            cubes=[
+                CubePrimitive(
+                    pose=pose_of(T_base_box),
+                    size=Vector3(x=float(size[0]), y=float(size[1]), z=float(size[2])),
+                    color=OBSTACLE,
+                )
+            ],
+            texts=[label(T_base_box, name, UNTRIED)],
+        )
+        for name, size, T_base_box in scene_boxes(config.scene)
+    ]
+
+
+def _workspace_entities(config: CellConfig, time_ns: int) -> list[SceneEntity]:
     box = config.workspace
     low = np.asarray(box.min_mm, dtype=np.float64) / 1000.0
     high = np.asarray(box.max_mm, dtype=np.float64) / 1000.0
