@@ -10,9 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-import yaml
-
-from tests.integration.test_vision_loop_example import _free_host
+from tests.integration.test_vision_loop_example import example_config
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -20,15 +18,10 @@ ROOT = Path(__file__).resolve().parents[2]
 def test_the_bin_is_emptied_but_the_corner_cube_and_nothing_touches_the_bin(
     tmp_path: Path,
 ) -> None:
-    config = ROOT / "config" / "bin.yaml"
-    doc = yaml.safe_load(config.read_text())
-    doc["robot"]["host"] = _free_host()  # never 127.0.0.1 in tests: that is the example's own
-    doc["hand_eye"]["file"] = str(config.parent / doc["hand_eye"]["file"])
-    doc["audit"]["file"] = str(tmp_path / "picks.jsonl")
-    (tmp_path / "bin.yaml").write_text(yaml.safe_dump(doc))
+    config = example_config(tmp_path, "bin.yaml")
     result = subprocess.run(
         [sys.executable, str(ROOT / "examples" / "bin_loop.py"),
-         "--config", str(tmp_path / "bin.yaml"), "--speed-factor", "8"],
+         "--config", str(config), "--speed-factor", "8"],
         cwd=tmp_path, capture_output=True, text=True, timeout=180, check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr

@@ -28,19 +28,27 @@ def _free_host() -> str:
     raise RuntimeError("no free 127.0.0.N address after 20 tries")
 
 
+def example_config(tmp_path: Path, config_name: str) -> Path:
+    """A copy of config/``config_name`` in ``tmp_path`` for a test: a free 127.0.0.N for the
+    simulated controller (never 127.0.0.1, the example's own), the hand-eye file's absolute
+    path, the audit file in ``tmp_path``."""
+    config = ROOT / "config" / config_name
+    doc = yaml.safe_load(config.read_text())
+    doc["robot"]["host"] = _free_host()
+    doc["hand_eye"]["file"] = str(config.parent / doc["hand_eye"]["file"])
+    doc["audit"]["file"] = str(tmp_path / "picks.jsonl")
+    copy = tmp_path / config_name
+    copy.write_text(yaml.safe_dump(doc))
+    return copy
+
+
 @pytest.mark.parametrize("config_name", ["loop.yaml", "loop-eye-to-hand.yaml"])
 def test_five_cycles_place_every_box_with_every_grasp_within_a_millimetre(
     tmp_path: Path, config_name: str
 ) -> None:
-    config = ROOT / "config" / config_name
-    doc = yaml.safe_load(config.read_text())
-    doc["robot"]["host"] = _free_host()  # never 127.0.0.1 in tests: that is the example's own
-    doc["hand_eye"]["file"] = str(config.parent / doc["hand_eye"]["file"])
-    doc["audit"]["file"] = str(tmp_path / "picks.jsonl")
-    (tmp_path / "loop.yaml").write_text(yaml.safe_dump(doc))
+    config = example_config(tmp_path, config_name)
     result = subprocess.run(
-        [sys.executable, str(ROOT / "examples" / "vision_loop.py"),
-         "--config", str(tmp_path / "loop.yaml")],
+        [sys.executable, str(ROOT / "examples" / "vision_loop.py"), "--config", str(config)],
         cwd=tmp_path, capture_output=True, text=True, timeout=180, check=False,
     )
     assert result.returncode == 0, result.stdout + result.stderr
