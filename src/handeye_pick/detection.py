@@ -37,7 +37,7 @@ from handeye_pick.calibration.files import (
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.config.reader import Fields, read_yaml_mapping
+from handeye_pick.config.reader import Fields, part_size_mm, read_yaml_mapping
 from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,
@@ -62,7 +62,6 @@ CAPTURE_KEYS = ("flange_pose_ur", "robot_pose_file")
 # Rotation vectors longer than calibration.MAX_ROTVEC_RAD are in degrees.
 MAX_ROTATION_ENTRY = 1e6
 MAX_EULER_DEG = 360.0
-MAX_PART_MM = 1000.0  # a part bigger than a metre is one written in metres (or in microns)
 SYMMETRY_ORDERS = ("2", "3", "4", "6", "inf")
 
 
@@ -195,19 +194,9 @@ def detection_from_data(data: object, source: str, capture_folder: Path | None =
         position_only,
         source,
         T_base_flange,
-        size_mm=_size(top) if top.has("size_mm") else None,
+        size_mm=part_size_mm(top, "size_mm") if top.has("size_mm") else None,
         symmetry=_symmetry(top) if top.has("symmetry") else None,
     )
-
-
-def _size(top: Fields) -> tuple[float, float, float]:
-    size = top.vector("size_mm", 3)
-    if not all(0.0 < v <= MAX_PART_MM for v in size):
-        top.fail(
-            "size_mm",
-            f"every size must lie in (0, {MAX_PART_MM:g}] mm, got {size.tolist()} (metres given?)",
-        )
-    return float(size[0]), float(size[1]), float(size[2])
 
 
 def _symmetry(top: Fields) -> Symmetry:

@@ -13,7 +13,7 @@ from dataclasses import replace
 import numpy as np
 
 from handeye_pick.calibration.files import MAX_ROTVEC_RAD
-from handeye_pick.config.reader import Fields, Number, describe
+from handeye_pick.config.reader import Fields, Number, describe, part_size_mm
 from handeye_pick.config.schema import (
     MAX_JOINT_RAD,
     MAX_OBJECT_OFFSET_M,
@@ -40,7 +40,6 @@ _ALTERNATIVES = {
         "deg", minimum=5.0, maximum=180.0, default=GraspConfig.symmetry_step_deg
     ),
 }
-MAX_PART_MM = 1000.0  # a held part bigger than a metre is one written in the wrong unit
 _CAPTURE_NUMBERS = {
     "steady_timeout_s": Number(
         "s", above=0.0, maximum=30.0, default=CaptureConfig.steady_timeout_s
@@ -118,19 +117,8 @@ def read_grasp(top: Fields, default_straight_mm: float) -> GraspConfig:
         straight_mm=grasp.number("straight_mm", straight),
         tilt_max_deg=grasp.number("tilt_max_deg", _ALTERNATIVES),
         symmetry_step_deg=grasp.number("symmetry_step_deg", _ALTERNATIVES),
-        part_size_mm=_part_size(grasp) if grasp.has("part_size_mm") else None,
+        part_size_mm=part_size_mm(grasp, "part_size_mm") if grasp.has("part_size_mm") else None,
     )
-
-
-def _part_size(grasp: Fields) -> tuple[float, float, float]:
-    """``part_size_mm``: the held part's box (mm), three lengths in (0, ``MAX_PART_MM``]."""
-    size = grasp.vector("part_size_mm", 3)
-    if not all(0.0 < v <= MAX_PART_MM for v in size):
-        grasp.fail(
-            "part_size_mm",
-            f"every size must lie in (0, {MAX_PART_MM:g}] mm, got {size.tolist()} (metres given?)",
-        )
-    return float(size[0]), float(size[1]), float(size[2])
 
 
 def read_place(top: Fields, poses: tuple[NamedPose, ...]) -> PlaceConfig:

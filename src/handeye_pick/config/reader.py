@@ -212,3 +212,18 @@ def _parses_as_float(text: str) -> bool:
     except ValueError:
         return False
     return True
+
+
+MAX_PART_MM = 1000.0  # a part bigger than a metre is one written in metres (or in microns)
+
+
+def part_size_mm(fields: Fields, key: str) -> tuple[float, float, float]:
+    """A part's box at ``key`` (a detection's ``size_mm``, ``grasp.part_size_mm``): three edge
+    lengths in mm, each in (0, ``MAX_PART_MM``]."""
+    size = fields.vector(key, 3)
+    if not all(0.0 < v <= MAX_PART_MM for v in size):
+        fields.fail(
+            key,
+            f"every size must lie in (0, {MAX_PART_MM:g}] mm, got {size.tolist()} (metres given?)",
+        )
+    return float(size[0]), float(size[1]), float(size[2])
