@@ -151,7 +151,7 @@ def _bare_move(control: Any, command: dict[str, Any]) -> bool:
     return bool(control.moveL(rows))
 
 
-def _bare(config: CellConfig, ctl: SimulatedController, cycles: int,
+def _bare(ctl: SimulatedController, cycles: int,
           motions: list[dict[str, Any]]) -> tuple[list[float], list[float]]:
     """Overheads, and the seconds of each synchronous motion command."""
     import rtde_control
@@ -229,7 +229,7 @@ def main() -> None:
         config = load_config(config_path)
         session, seconds, motions = _session(config, ctl, args.cycles)
         cli = _cli(config_path, config, ctl, args.cycles, folder)
-        bare, bare_move_s = _bare(config, ctl, args.cycles, motions)
+        bare, bare_move_s = _bare(ctl, args.cycles, motions)
 
     kinds = ", ".join(
         f"{c['kind']}" + (f" of {len(c['waypoints'])}" if c["kind"] == "movePath" else "")
