@@ -36,7 +36,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/, not in the installed package
 
 from handeye_pick.calibration.dataset import HandEyePair  # noqa: E402
-from handeye_pick.calibration.files import HandEyeMode  # noqa: E402
 from handeye_pick.calibration.solver import (  # noqa: E402
     OPENCV_METHODS,
     opencv_hand_eye,
@@ -45,6 +44,7 @@ from handeye_pick.calibration.solver import (  # noqa: E402
 )
 from handeye_pick.errors import CalibrationError  # noqa: E402
 from handeye_pick.geometry import Transform, rotation_angle_between  # noqa: E402
+from handeye_pick.hand_eye.files import HandEyeMode  # noqa: E402
 from mocks.handeye_scene import Noise, Scene, make_scene, measure, wrong_pair  # noqa: E402
 
 OURS = "handeye-pick"

@@ -67,8 +67,8 @@ from benchmarks.run_pipe import (  # noqa: E402
     figures,
     workers,
 )
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye  # noqa: E402
 from mocks.ur_controller import admin  # noqa: E402
 
 HOST = "127.0.0.247"  # its own address: leaves the tests' and the other benchmarks' alone

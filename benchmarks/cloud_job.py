@@ -32,9 +32,9 @@ import numpy as np
 from measure import ROOT, console_script, machine, print_table, side_by_side
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
 from handeye_pick.cloud.files import PointCloud, write_cloud
 from handeye_pick.geometry import scale_translation
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye
 
 CALIBRATION = ROOT / "config" / "calibration" / "EyeToHandTransform.yaml"
 NUMPY = "numpy script: .npy -> .npy"

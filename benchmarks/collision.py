@@ -29,12 +29,12 @@ from pathlib import Path
 import numpy as np
 from measure import machine
 
-from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.cell.plan import blended, choose, pick_steps, place_steps
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection, Symmetry
 from handeye_pick.geometry import Transform, invert, make_transform, rotation_from_euler
+from handeye_pick.hand_eye.files import load_hand_eye
 from handeye_pick.scene.check import SceneCheck
 
 T_BASE_CAM = np.array([[1.0, 0, 0, -0.4], [0, -1.0, 0, 0], [0, 0, -1.0, 1.0], [0, 0, 0, 1.0]])

@@ -38,7 +38,6 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 
 from handeye_pick import Cell  # noqa: E402
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.cell.session import connect_ur_rtde  # noqa: E402
 from handeye_pick.config.load import load_config  # noqa: E402
 from handeye_pick.config.schema import CellConfig  # noqa: E402
@@ -48,6 +47,7 @@ from handeye_pick.geometry import (  # noqa: E402
     transform_point,
     ur_pose_to_matrix,
 )
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.robot.port import RobotArm  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
 

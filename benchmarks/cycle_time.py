@@ -48,8 +48,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 
 from benchmarks.run_pipe import Pipe  # noqa: E402
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
 
 HOST = "127.0.0.246"  # not 127.0.0.1: leaves the demo and the tests' addresses alone

@@ -22,7 +22,7 @@ sys.path.insert(0, str(ROOT))  # mocks/ and benchmarks/ live beside src/
 
 from benchmarks import cycle  # noqa: E402
 from handeye_pick import Cell  # noqa: E402
-from handeye_pick.cell.session import calibration_from_config  # noqa: E402
+from handeye_pick.config.hand_eye import calibration_from_config  # noqa: E402
 from handeye_pick.config.load import load_config  # noqa: E402
 from handeye_pick.config.schema import CellConfig  # noqa: E402
 from handeye_pick.detection import detection_from_point_mm  # noqa: E402

@@ -29,8 +29,8 @@ sys.path.insert(0, str(ROOT))  # mocks/ lives beside src/
 
 from benchmarks.cycle import CELL_YAML, CLI, OBJECT_BASE_M, TCP_OFFSET  # noqa: E402
 from benchmarks.run_pipe import Pipe, dashboard, figures, print_figures  # noqa: E402
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye  # noqa: E402
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
 
 HOST = "127.0.0.251"

@@ -20,7 +20,7 @@ _EXPORTS = {
     "Cell": "handeye_pick.cell.session",
     "Capture": "handeye_pick.cell.captures",
     "CellStatus": "handeye_pick.cell.status",
-    "PickResult": "handeye_pick.cell.session",
+    "PickResult": "handeye_pick.cell.pick",
     "NoFeasibleCandidate": "handeye_pick.cell.plan",
     "PreflightRefusal": "handeye_pick.safety",
     "load_config": "handeye_pick.config.load",
@@ -61,8 +61,9 @@ __all__ = [  # the same names as _EXPORTS (tests/unit/test_light_imports.py chec
 
 if TYPE_CHECKING:  # what type checkers and IDEs see; at run time __getattr__ imports these
     from handeye_pick.cell.captures import Capture
+    from handeye_pick.cell.pick import PickResult
     from handeye_pick.cell.plan import NoFeasibleCandidate
-    from handeye_pick.cell.session import Cell, PickResult
+    from handeye_pick.cell.session import Cell
     from handeye_pick.cell.status import CellStatus
     from handeye_pick.cloud.transform import transform_points
     from handeye_pick.config.load import load_config

@@ -32,11 +32,6 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from handeye_pick.calibration.files import (
-    MAX_ROTVEC_RAD,
-    read_robot_pose_file,
-    robot_pose_from_ur_vector,
-)
 from handeye_pick.config.reader import Fields, part_size_mm, read_yaml_mapping
 from handeye_pick.errors import CalibrationError, DetectionError, TransformError
 from handeye_pick.geometry import (
@@ -46,6 +41,11 @@ from handeye_pick.geometry import (
     rotation_from_quaternion,
     rotation_from_rotvec,
     validate_rotation,
+)
+from handeye_pick.hand_eye.files import (
+    MAX_ROTVEC_RAD,
+    read_robot_pose_file,
+    robot_pose_from_ur_vector,
 )
 
 # A point closer than 10 mm to the camera is no detection: it is metres typed as millimetres

@@ -42,8 +42,9 @@ from pathlib import Path
 from typing import Any
 
 from handeye_pick.cell.captures import Capture
+from handeye_pick.cell.pick import PickResult
 from handeye_pick.cell.plan import NoFeasibleCandidate
-from handeye_pick.cell.session import Cell, PickResult
+from handeye_pick.cell.session import Cell
 from handeye_pick.detection import Detection, detection_from_data
 from handeye_pick.errors import (
     InputError,

@@ -22,11 +22,11 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import HandEyeCalibration, HandEyeMode
-from handeye_pick.calibration.plausibility import chain_problems
 from handeye_pick.config.schema import CellConfig, MotionConfig, RobotConfig, WorkspaceConfig
 from handeye_pick.errors import CellHalted, PlanRefused, SafetyRefusal
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, rotation_angle_between
+from handeye_pick.hand_eye.files import HandEyeCalibration, HandEyeMode
+from handeye_pick.hand_eye.plausibility import chain_problems
 from handeye_pick.limits import (
     MAX_ACCEL_MPS2,
     MAX_GRASP_SPEED_MPS,

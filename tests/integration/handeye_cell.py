@@ -17,8 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye_pick.calibration.files import write_zivid_transform
 from handeye_pick.geometry import ur_pose_to_matrix
+from handeye_pick.hand_eye.files import write_zivid_transform
 from tests.conftest import TEST_WATCHDOG_S
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -21,8 +21,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from handeye_pick.calibration.files import read_transform_file
 from handeye_pick.geometry import rotation_angle_between, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import read_transform_file
 from mocks.ur_controller import SimulatedController
 from tests.integration.handeye_cell import (
     TCP_OFFSET,

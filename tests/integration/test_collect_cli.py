@@ -26,7 +26,6 @@ import numpy as np
 import pytest
 
 from handeye_pick.calibration.dataset import read_dataset
-from handeye_pick.calibration.files import read_robot_pose_file, write_zivid_transform
 from handeye_pick.cell.session import Cell
 from handeye_pick.geometry import (
     invert,
@@ -35,6 +34,7 @@ from handeye_pick.geometry import (
     ur_pose_list,
     ur_pose_to_matrix,
 )
+from handeye_pick.hand_eye.files import read_robot_pose_file, write_zivid_transform
 from mocks.ur_controller import SimulatedController
 from tests.integration.handeye_cell import (
     CLI,

@@ -29,10 +29,10 @@ from handeye_pick import (
     load_detection,
 )
 from handeye_pick.cell.sequence import execute
-from handeye_pick.cell.steps import Move
 from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
+from handeye_pick.steps import Move
 from mocks.ur_controller import SimulatedController
 from tests.integration.test_pick_cli import (
     DEMO,

@@ -20,8 +20,8 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.geometry import ur_pose_to_matrix
+from handeye_pick.hand_eye.files import load_hand_eye
 from handeye_pick.plot import FIGURE_SIZE_PX
 from handeye_pick.robot.port import RuntimeState
 from handeye_pick.robot.ur.arm import URRtdeArm

@@ -20,9 +20,9 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
 from handeye_pick.detection import load_detection
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 

@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from handeye_pick.calibration.files import read_transform_file
+from handeye_pick.hand_eye.files import read_transform_file
 from mocks.camera import (
     BoardNotVisible,
     CalibrationBoard,

@@ -17,8 +17,8 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.config.load import load_config
+from handeye_pick.hand_eye.files import load_hand_eye
 from mocks.ur_controller.kinematics import MODELS, forward, pose_to_matrix, reachable
 
 ROOT = Path(__file__).resolve().parents[2]

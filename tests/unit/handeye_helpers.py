@@ -9,8 +9,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from handeye_pick.calibration.dataset import HandEyePair, object_pose_path, robot_pose_path
-from handeye_pick.calibration.files import HandEyeMode, write_zivid_transform
 from handeye_pick.geometry import rotation_angle_between
+from handeye_pick.hand_eye.files import HandEyeMode, write_zivid_transform
 
 Captures = list[tuple[NDArray[np.float64], NDArray[np.float64]]]
 

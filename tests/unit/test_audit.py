@@ -21,7 +21,7 @@ from handeye_pick.audit import (
     open_audit,
     read_audit,
 )
-from handeye_pick.calibration.files import HandEyeMode
+from handeye_pick.hand_eye.files import HandEyeMode
 from handeye_pick.robot.port import SafetyMode
 from handeye_pick.safety import CheckResult
 

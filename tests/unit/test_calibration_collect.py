@@ -18,11 +18,11 @@ from handeye_pick.calibration.collect import (
     check_pose_list_tcp,
     first_pair_number,
 )
-from handeye_pick.calibration.files import write_zivid_transform
 from handeye_pick.calibration.pose_list import PoseList
 from handeye_pick.config.load import load_config
 from handeye_pick.errors import CalibrationError, InputError
 from handeye_pick.geometry import make_transform, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import write_zivid_transform
 
 ROOT = Path(__file__).resolve().parents[2]
 POSE = make_transform(np.eye(3), [0.3, 0.1, 0.4])

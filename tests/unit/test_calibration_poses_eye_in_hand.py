@@ -11,12 +11,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.calibration.poses_eye_in_hand import propose_poses
 from handeye_pick.calibration.rotation_spread import check_motion, motion_spread
 from handeye_pick.calibration.solver import solve_hand_eye
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, rotation_angle_between, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeMode
 from tests.unit.handeye_helpers import as_pairs, errors
 
 T_FLANGE_CAM = ur_pose_to_matrix([0.0, -0.07, 0.06, 0.0, 0.0, 0.1])

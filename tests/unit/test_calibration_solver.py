@@ -11,7 +11,6 @@ from hypothesis import given, reject, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.calibration.rotation_spread import check_motion, motion_spread
 from handeye_pick.calibration.solver import (
     OPENCV_METHODS,
@@ -22,6 +21,7 @@ from handeye_pick.calibration.solver import (
 )
 from handeye_pick.errors import CalibrationError
 from handeye_pick.geometry import invert, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeMode
 from mocks.handeye_scene import NO_NOISE, Noise, make_scene, measure, wrong_pair
 from tests.unit.handeye_helpers import MODES, NUMBERS, Captures, as_pairs, errors
 

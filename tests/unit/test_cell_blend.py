@@ -22,11 +22,11 @@ from handeye_pick.cell.blend import (
 )
 from handeye_pick.cell.plan import check_steps
 from handeye_pick.cell.sequence import path_at
-from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.config.load import load_config
 from handeye_pick.errors import ConfigError, RobotFault
 from handeye_pick.geometry import Transform, make_transform
 from handeye_pick.safety import PreflightRefusal
+from handeye_pick.steps import Grip, JointMove, Move, Step
 from tests.unit.test_cell_session import PLACE, ScriptedArm, _cell, _config, _detection, _records
 
 GRIPPER = "  gripper: {bank: tool, index: 1, close_value: true, settle_s: 0}"

@@ -19,7 +19,6 @@ import numpy as np
 import pytest
 
 from handeye_pick import progress as progress_module
-from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.plan import NoFeasibleCandidate
 from handeye_pick.cell.sequence import move_timeout_s
 from handeye_pick.cell.session import Cell, PickResult
@@ -40,6 +39,7 @@ from handeye_pick.geometry import (
     rotation_from_euler,
     ur_pose_to_matrix,
 )
+from handeye_pick.hand_eye.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import OutputBank, ProgressCallback, RobotStatus, Waypoint
 from handeye_pick.safety import PreflightRefusal

@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 import yaml
 
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
 from handeye_pick.cli import main
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye
 from mocks.handeye_scene import Noise, Scene, make_scene, measure, wrong_pair
 from tests.unit.handeye_helpers import MODES, NUMBERS, errors, write_dataset
 

@@ -12,7 +12,6 @@ from typing import Any
 import numpy as np
 import pytest
 
-from handeye_pick.calibration.files import read_transform_file, write_zivid_transform
 from handeye_pick.cli import main
 from handeye_pick.geometry import (
     invert,
@@ -21,6 +20,7 @@ from handeye_pick.geometry import (
     rotation_from_quaternion,
     ur_pose_to_matrix,
 )
+from handeye_pick.hand_eye.files import read_transform_file, write_zivid_transform
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "config" / "calibration"
 EYE_IN_HAND = str(EXAMPLES / "EyeInHandTransform.yaml")

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 import yaml
 
-from handeye_pick.calibration.files import HandEyeMode
-from handeye_pick.calibration.plausibility import MeasuredCamera
+from handeye_pick.config.gripper import GripperConfig
 from handeye_pick.config.load import load_config
 from handeye_pick.config.reader import read_yaml_mapping
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.errors import ConfigError
-from handeye_pick.gripper.config import GripperConfig
+from handeye_pick.hand_eye.files import HandEyeMode
+from handeye_pick.hand_eye.plausibility import MeasuredCamera
 from handeye_pick.robot.port import OutputBank
 
 ROOT = Path(__file__).resolve().parents[2]

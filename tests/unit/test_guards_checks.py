@@ -12,17 +12,17 @@ import numpy as np
 import pytest
 
 from handeye_pick import load_config
-from handeye_pick.calibration.files import (
+from handeye_pick.cli import main
+from handeye_pick.errors import ConfigError
+from handeye_pick.geometry import Transform, invert, make_transform, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import (
     CELL_CONFIG,
     HandEyeCalibration,
     HandEyeMode,
     load_hand_eye,
     write_zivid_transform,
 )
-from handeye_pick.calibration.plausibility import MeasuredCamera, chain_problems
-from handeye_pick.cli import main
-from handeye_pick.errors import ConfigError
-from handeye_pick.geometry import Transform, invert, make_transform, ur_pose_to_matrix
+from handeye_pick.hand_eye.plausibility import MeasuredCamera, chain_problems
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from tests.integration.test_pick_cli import write_config
 from tests.unit.handeye_helpers import errors, write_dataset
@@ -56,7 +56,7 @@ def _eye_to_hand(tmp_path: Path, T_base_cam: Transform) -> HandEyeCalibration:
 
 @pytest.mark.parametrize("looks", ["down", "up"])
 def test_a_workspace_behind_a_fixed_camera_is_not_in_its_view(tmp_path: Path, looks: str) -> None:
-    """Guards the ray of ``_ray_meets_box`` (calibration/plausibility.py, ``s_in, s_out =
+    """Guards the ray of ``_ray_meets_box`` (hand_eye/plausibility.py, ``s_in, s_out =
     0.0, math.inf``: only s >= 0, what lies in front of the camera). A camera 1 m above the
     workspace box (x, y within it): looking down it sees the box; looking up (an inverted
     mount), the line of its optical axis still crosses the box, but behind the camera, and

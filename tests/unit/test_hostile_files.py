@@ -11,11 +11,11 @@ from pathlib import Path
 
 import pytest
 
-from handeye_pick.calibration.files import HandEyeMode, load_hand_eye
 from handeye_pick.cli import main
 from handeye_pick.config.load import load_config
 from handeye_pick.detection import load_detection
 from handeye_pick.errors import InputError
+from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye
 from handeye_pick.inputfiles import MAX_INPUT_BYTES, MAX_YAML_VALUES
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -9,13 +9,13 @@ import matplotlib.image
 import numpy as np
 import pytest
 
-from handeye_pick.calibration.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.cell.plan import chain_plan
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import PICK_MOVES, BinConfig, SceneConfig
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeCalibration, load_hand_eye
 from handeye_pick.plot import FIGURE_SIZE_PX, Scene, cloud_to_base_m, render_scene
 from handeye_pick.scene.layout import scene_boxes
 

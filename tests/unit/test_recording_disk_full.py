@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from handeye_pick.cell.session import calibration_from_config
+from handeye_pick.config.hand_eye import calibration_from_config
 from handeye_pick.config.load import load_config
 from handeye_pick.geometry import ur_pose_list
 from handeye_pick.record.publisher import Publisher

@@ -21,22 +21,22 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from handeye_pick.calibration.files import load_hand_eye
 from handeye_pick.cell.plan import Chosen, NoFeasibleCandidate, choose, pick_steps
 from handeye_pick.cell.session import Cell
-from handeye_pick.cell.steps import Move
 from handeye_pick.cli import main
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import CellConfig, SceneBox, SceneConfig, ToolShape
 from handeye_pick.detection import Detection, Symmetry
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import invert, make_transform, rotation_from_euler
+from handeye_pick.hand_eye.files import load_hand_eye
 from handeye_pick.runner import pick_reply
 from handeye_pick.safety import PreflightRefusal
 from handeye_pick.scene.check import SceneCheck
 from handeye_pick.scene.collide import PROOF_TOLERANCE_M, Group
 from handeye_pick.scene.layout import bin_boxes, describe_scene
 from handeye_pick.scene.path import pieces
+from handeye_pick.steps import Move
 from tests.audit_schema import record_problems
 from tests.unit.test_cell_session import ScriptedArm
 

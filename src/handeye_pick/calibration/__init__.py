@@ -1,1 +1,2 @@
-"""Hand-eye calibration: its files, its plausibility, datasets, the solver and pose proposals."""
+"""Hand-eye calibration as a procedure: datasets, the solver, pose proposals and the collect
+run that drives a cell (the files it writes and their plausibility are in ``hand_eye``)."""

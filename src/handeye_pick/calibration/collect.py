@@ -42,11 +42,11 @@ from handeye_pick.calibration.dataset import (
     read_dataset,
     robot_pose_path,
 )
-from handeye_pick.calibration.files import read_object_pose_file, write_zivid_transform
 from handeye_pick.calibration.pose_list import PoseList
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.errors import CalibrationError, InputError
 from handeye_pick.geometry import LengthUnit, Transform
+from handeye_pick.hand_eye.files import read_object_pose_file, write_zivid_transform
 from handeye_pick.safety import PreflightRefusal, tcp_offset_difference
 
 if TYPE_CHECKING:  # the cell's machinery is loaded by the command that runs, not for --help

@@ -21,9 +21,9 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from handeye_pick.calibration.files import read_object_pose_file, read_robot_pose_file
 from handeye_pick.errors import CalibrationError
 from handeye_pick.geometry import LengthUnit, Transform
+from handeye_pick.hand_eye.files import read_object_pose_file, read_robot_pose_file
 
 ROBOT_POSE_PREFIX = "robot_pose_"
 OBJECT_POSE_PREFIX = "object_pose_"

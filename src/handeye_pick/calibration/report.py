@@ -15,10 +15,10 @@ from typing import Any
 import numpy as np
 import yaml
 
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.calibration.solver import HandEyeFit, HandEyeResult
 from handeye_pick.errors import CalibrationError
 from handeye_pick.geometry import rotation_angle_between
+from handeye_pick.hand_eye.files import HandEyeMode
 
 ZIVID_BANDS = (
     "Zivid's bands: residuals in the sub-millimetre range for a smaller robot and in the "

@@ -59,10 +59,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from handeye_pick.calibration.dataset import HandEyePair
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.calibration.rotation_spread import check_motion, motion_spread
 from handeye_pick.errors import CalibrationError
 from handeye_pick.geometry import Transform, invert, make_transform, rotation_angle_between
+from handeye_pick.hand_eye.files import HandEyeMode
 
 MIN_PAIRS = 4
 """Fewest pairs accepted: 3 determine the transform, a 4th is the least that shows an error."""

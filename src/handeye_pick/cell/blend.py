@@ -20,8 +20,8 @@ from dataclasses import dataclass, replace
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.geometry import Transform
+from handeye_pick.steps import Grip, JointMove, Move, Step
 
 BLEND_SHARE = 0.45
 """The largest share of either segment one corner may take: two corners on a segment then leave

@@ -20,8 +20,8 @@ from typing import Protocol
 
 from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.plan import CandidateRefusal, PickPlan
-from handeye_pick.cell.steps import Step
 from handeye_pick.geometry import Transform
+from handeye_pick.steps import Step
 
 log = logging.getLogger(__name__)
 

@@ -16,10 +16,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from handeye_pick.calibration.files import HandEyeCalibration
 from handeye_pick.cell.blend import corners, with_blends
 from handeye_pick.cell.grasp import backed_off, plan_targets
-from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.config.schema import (
     PICK_MOVES,
     PLACE_MOVES,
@@ -32,6 +30,7 @@ from handeye_pick.config.schema import (
 from handeye_pick.detection import Detection
 from handeye_pick.errors import PlanRefused
 from handeye_pick.geometry import Transform, compose, rotation_angle_between, ur_pose_list
+from handeye_pick.hand_eye.files import HandEyeCalibration
 from handeye_pick.robot.port import RobotArm
 from handeye_pick.safety import (
     CheckResult,
@@ -44,6 +43,7 @@ from handeye_pick.safety import (
     preflight,
 )
 from handeye_pick.scene import alternatives
+from handeye_pick.steps import Grip, JointMove, Move, Step
 
 if TYPE_CHECKING:
     from handeye_pick.scene.check import SceneCheck

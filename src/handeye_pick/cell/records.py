@@ -13,14 +13,14 @@ from contextlib import contextmanager
 from dataclasses import asdict
 
 from handeye_pick.audit import AuditLog
-from handeye_pick.calibration.files import HandEyeCalibration
 from handeye_pick.cell.plan import PickPlan
-from handeye_pick.cell.steps import Grip, Move, Step
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import RobotFault, Terminated, ending
 from handeye_pick.geometry import Transform, ur_pose_list
+from handeye_pick.hand_eye.files import HandEyeCalibration
 from handeye_pick.safety import PreflightRefusal
+from handeye_pick.steps import Grip, Move, Step
 
 log = logging.getLogger(__name__)
 

@@ -20,7 +20,6 @@ import numpy as np
 from handeye_pick.cell.blend import BLEND_SHARE, MIN_BLEND_M
 from handeye_pick.cell.payload import held_payload
 from handeye_pick.cell.plan import RETREAT
-from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.config.schema import CellConfig, Payload
 from handeye_pick.errors import (
     HandEyePickError,
@@ -37,6 +36,7 @@ from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import ProgressCallback, RobotArm, Waypoint
 from handeye_pick.safety import check_joint_command, check_motion_command, ensure_remote_control
+from handeye_pick.steps import Grip, JointMove, Move, Step
 
 TIMEOUT_FACTOR = 1.5
 """A move may take this much longer than its trapezoid profile (speed slider, controller

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from handeye_pick.calibration.files import HandEyeCalibration
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.errors import RobotConnectionError, RobotFault
 from handeye_pick.geometry import Transform, compose
+from handeye_pick.hand_eye.files import HandEyeCalibration
 from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
 from handeye_pick.robot.ur.readout import read_controller

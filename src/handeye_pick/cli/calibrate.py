@@ -8,7 +8,6 @@ import logging
 from pathlib import Path
 
 from handeye_pick.calibration.dataset import read_dataset
-from handeye_pick.calibration.files import HandEyeMode, write_zivid_transform
 from handeye_pick.calibration.report import (
     TRANSFORM_NAMES,
     result_record,
@@ -18,6 +17,7 @@ from handeye_pick.calibration.report import (
 from handeye_pick.calibration.solver import MIN_PAIRS, MeasurementNoise, solve_hand_eye
 from handeye_pick.cli.common import UNITS
 from handeye_pick.errors import InputError
+from handeye_pick.hand_eye.files import HandEyeMode, write_zivid_transform
 
 log = logging.getLogger(__name__)
 

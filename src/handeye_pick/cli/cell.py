@@ -12,11 +12,11 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from handeye_pick.calibration.files import read_robot_pose_file
 from handeye_pick.cli.common import accept_negative_exponents, camera_point_mm_from_args
 from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import read_robot_pose_file
 from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
@@ -57,7 +57,7 @@ def publisher_from_args(
     the recording's file is created here, before the robot is contacted."""
     if args.record is None and live is None:
         return None
-    from handeye_pick.cell.session import calibration_from_config
+    from handeye_pick.config.hand_eye import calibration_from_config
     from handeye_pick.record.publisher import Publisher
     from handeye_pick.record.recorder import check_record_path
 

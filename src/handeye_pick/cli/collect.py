@@ -9,10 +9,10 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.cli.cell import add_config_arg, add_json_arg, print_json, progress_from_args
 from handeye_pick.cli.common import UNITS
 from handeye_pick.errors import HandEyePickError, InputError, Status
+from handeye_pick.hand_eye.files import HandEyeMode
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.calibration.collect import Collection

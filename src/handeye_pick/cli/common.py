@@ -16,14 +16,16 @@ from pathlib import Path
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import (
+from handeye_pick.errors import InputError
+from handeye_pick.geometry import Transform
+from handeye_pick.hand_eye.files import (
     HandEyeCalibration,
     HandEyeMode,
     load_hand_eye,
     read_robot_pose_file,
     robot_pose_from_ur_vector,
 )
-from handeye_pick.calibration.plausibility import (
+from handeye_pick.hand_eye.plausibility import (
     CAMERA_POSITION_TOLERANCE_MM,
     CHECKS,
     MAX_CAMERA_POSITION_TOLERANCE_MM,
@@ -32,8 +34,6 @@ from handeye_pick.calibration.plausibility import (
     measured_position_problem,
     refuse_implausible,
 )
-from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform
 
 log = logging.getLogger(__name__)
 

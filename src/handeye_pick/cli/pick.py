@@ -31,8 +31,8 @@ from handeye_pick.errors import ExitCode, HandEyePickError, Status, ending
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
+    from handeye_pick.cell.pick import PickResult
     from handeye_pick.cell.plan import StepError
-    from handeye_pick.cell.session import PickResult
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -18,11 +18,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import HandEyeMode
 from handeye_pick.cli.cell import add_config_arg, add_json_arg, print_json, progress_from_args
 from handeye_pick.cli.common import accept_negative_exponents
 from handeye_pick.errors import InputError, SafetyRefusal
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeMode
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.cell.session import Cell

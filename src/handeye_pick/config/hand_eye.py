@@ -1,20 +1,21 @@
 """The ``hand_eye`` section: where the calibration result is, how to read it, and what tells it
-from its inverse (a measured camera position, checks the cell's mount is known to fail)."""
+from its inverse (a measured camera position, checks the cell's mount is known to fail); and the
+calibration it names, loaded (``calibration_from_config``)."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-from handeye_pick.calibration.files import HandEyeMode
-from handeye_pick.calibration.plausibility import (
+from handeye_pick.config.reader import Fields, Number, describe
+from handeye_pick.config.schema import CellConfig, HandEyeConfig
+from handeye_pick.geometry import LengthUnit
+from handeye_pick.hand_eye.files import CELL_CONFIG, HandEyeCalibration, HandEyeMode, load_hand_eye
+from handeye_pick.hand_eye.plausibility import (
     CHECKS,
     MAX_CAMERA_POSITION_TOLERANCE_MM,
     MeasuredCamera,
     measured_position_problem,
 )
-from handeye_pick.config.reader import Fields, Number, describe
-from handeye_pick.config.schema import HandEyeConfig
-from handeye_pick.geometry import LengthUnit
 
 _NUMBERS = {
     "camera_position_tolerance_mm": Number(
@@ -25,6 +26,14 @@ _NUMBERS = {
     ),
 }
 _KEYS = ("mode", "file", "units", "invert", "acknowledge", "camera_position_mm", *_NUMBERS)
+
+
+def calibration_from_config(config: CellConfig) -> HandEyeCalibration:
+    """The hand-eye calibration the cell configuration names (file, mode, units, inversion)."""
+    hand_eye = config.hand_eye
+    return load_hand_eye(
+        hand_eye.file, hand_eye.mode, hand_eye.units, hand_eye.invert, settings=CELL_CONFIG
+    )
 
 
 def read_hand_eye(top: Fields, folder: Path) -> HandEyeConfig:

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from handeye_pick.calibration.files import HandEyeMode
+from handeye_pick.config.gripper import Robotiq2FConfig
 from handeye_pick.config.hand_eye import read_hand_eye
 from handeye_pick.config.motion import read_motion, read_workspace
 from handeye_pick.config.payload import read_object
@@ -30,7 +30,7 @@ from handeye_pick.config.schema import (
     RobotConfig,
 )
 from handeye_pick.errors import ConfigError
-from handeye_pick.gripper.config import Robotiq2FConfig
+from handeye_pick.hand_eye.files import HandEyeMode
 
 _SECTIONS = (
     "robot",

@@ -12,7 +12,6 @@ from dataclasses import replace
 
 import numpy as np
 
-from handeye_pick.calibration.files import MAX_ROTVEC_RAD
 from handeye_pick.config.reader import Fields, Number, describe, part_size_mm
 from handeye_pick.config.schema import (
     MAX_JOINT_RAD,
@@ -27,6 +26,7 @@ from handeye_pick.config.schema import (
 )
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import Transform, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import MAX_ROTVEC_RAD
 
 NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 

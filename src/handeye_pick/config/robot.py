@@ -1,13 +1,13 @@
 """The ``robot`` section: the controller's address, the TCP offset the pendant must have, the
-watchdog, the gripper (``gripper/config.py``) and the empty tool's payload (``payload.py``)."""
+watchdog, the gripper (``config/gripper.py``) and the empty tool's payload (``payload.py``)."""
 
 from __future__ import annotations
 
+from handeye_pick.config.gripper import read_gripper
 from handeye_pick.config.payload import read_tool_payload
 from handeye_pick.config.poses import pose_vector
 from handeye_pick.config.reader import Fields, Number
 from handeye_pick.config.schema import MAX_TCP_OFFSET_M, RobotConfig
-from handeye_pick.gripper.config import read_gripper
 
 _NUMBERS = {
     "tcp_offset_tolerance_mm": Number(

@@ -14,11 +14,11 @@ from pathlib import Path
 
 import numpy as np
 
-from handeye_pick.calibration.files import HandEyeMode
-from handeye_pick.calibration.plausibility import MeasuredCamera
+from handeye_pick.config.gripper import AnyGripperConfig
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import LengthUnit, Transform
-from handeye_pick.gripper.config import AnyGripperConfig
+from handeye_pick.hand_eye.files import HandEyeMode
+from handeye_pick.hand_eye.plausibility import MeasuredCamera
 
 # Plausibility bounds that catch a value typed in the wrong unit. Each is far outside what a
 # real cell uses, so it only fires on a mistake.

@@ -1,11 +1,11 @@
 """Grippers: one module per kind behind ``gripper.port.Gripper``; ``connect_gripper`` picks the
-kind the config names (``robot.gripper.type``, read by ``gripper/config.py``)."""
+kind the config names (``robot.gripper.type``, read by ``config/gripper.py``)."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 
-from handeye_pick.gripper.config import AnyGripperConfig, GripperConfig
+from handeye_pick.config.gripper import AnyGripperConfig, GripperConfig
 from handeye_pick.gripper.port import GraspState, Gripper
 from handeye_pick.robot.port import RobotArm
 

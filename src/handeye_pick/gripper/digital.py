@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import time
 
+from handeye_pick.config.gripper import GripperConfig
 from handeye_pick.errors import GripperFault
-from handeye_pick.gripper.config import GripperConfig
 from handeye_pick.gripper.port import GraspState
 from handeye_pick.robot.port import RobotArm
 

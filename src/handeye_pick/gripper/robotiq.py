@@ -20,8 +20,8 @@ import socket
 import time
 from collections.abc import Callable
 
+from handeye_pick.config.gripper import Robotiq2FConfig
 from handeye_pick.errors import GripperFault
-from handeye_pick.gripper.config import Robotiq2FConfig
 from handeye_pick.gripper.port import GraspState
 
 log = logging.getLogger(__name__)

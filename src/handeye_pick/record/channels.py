@@ -39,10 +39,10 @@ from foxglove.messages import (
 from numpy.typing import NDArray
 
 from handeye_pick.cell.plan import CandidateRefusal, PickPlan, step_error
-from handeye_pick.cell.steps import Move, Step
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.geometry import Transform, rotation_from_quaternion
 from handeye_pick.scene.layout import scene_boxes
+from handeye_pick.steps import Move, Step
 
 BASE, FLANGE, TCP, CAM = "base", "flange", "tcp", "cam"
 CAPTURE_FLANGE, CAPTURE_CAM = "capture_flange", "capture_cam"

@@ -33,18 +33,18 @@ import numpy as np
 from foxglove.channels import FrameTransformsChannel, PointCloudChannel, SceneUpdateChannel
 from foxglove.messages import FrameTransform
 
-from handeye_pick.calibration.files import HandEyeCalibration, HandEyeMode
 from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.plan import CandidateRefusal, PickPlan
-from handeye_pick.cell.steps import Step
 from handeye_pick.cloud.files import open_cloud
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.errors import HandEyePickError
 from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeCalibration, HandEyeMode
 from handeye_pick.record import channels as ch
 from handeye_pick.record.live import start_live
 from handeye_pick.record.recorder import McapFiles
 from handeye_pick.record.stamps import ControllerClock
+from handeye_pick.steps import Step
 
 log = logging.getLogger(__name__)
 

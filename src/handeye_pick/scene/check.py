@@ -5,13 +5,13 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from handeye_pick.cell.steps import Step
 from handeye_pick.config.schema import PICK_MOVES, SceneConfig, ToolShape
 from handeye_pick.geometry import Transform, invert
 from handeye_pick.safety import CheckResult
 from handeye_pick.scene.collide import Group, Sweep, check_path, end_refusal
 from handeye_pick.scene.path import Piece, describe_move, pieces
 from handeye_pick.scene.shapes import obstacles, part_solid, tool_solids
+from handeye_pick.steps import Step
 
 GRASP = PICK_MOVES[1]
 

@@ -22,8 +22,8 @@ from functools import cached_property
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.cell.steps import Grip, JointMove, Move, Step
 from handeye_pick.geometry import Transform, rotation_to_rotvec
+from handeye_pick.steps import Grip, JointMove, Move, Step
 
 Vector = NDArray[np.float64]
 _I3: Vector = np.eye(3)

@@ -77,15 +77,15 @@ from typing import Protocol
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import (
+from handeye_pick.errors import HandEyePickError
+from handeye_pick.geometry import Transform, compose, invert
+from handeye_pick.hand_eye.files import (
     EYE_IN_HAND_RANGE,
     EYE_TO_HAND_RANGE,
     HandEyeCalibration,
     HandEyeMode,
     SettingNames,
 )
-from handeye_pick.errors import HandEyePickError
-from handeye_pick.geometry import Transform, compose, invert
 
 MAX_CAMERA_FROM_FLANGE_MM = 500.0
 MAX_CAMERA_BEHIND_FLANGE_MM = 10.0

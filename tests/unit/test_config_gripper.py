@@ -13,11 +13,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from handeye_pick.cell.payload import held_payload
+from handeye_pick.config.gripper import FeedbackInput, GripperConfig, Robotiq2FConfig
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import ObjectConfig, Payload
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import make_transform, rotation_from_euler, transform_point
-from handeye_pick.gripper.config import FeedbackInput, GripperConfig, Robotiq2FConfig
 from handeye_pick.gripper.robotiq import fault_text
 from handeye_pick.robot.port import OutputBank
 from tests.unit.test_config import BASE

@@ -13,16 +13,6 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from numpy.typing import NDArray
 
-from handeye_pick.calibration.files import (
-    CELL_CONFIG,
-    COMMAND_LINE,
-    HandEyeMode,
-    file_sha256,
-    load_hand_eye,
-    read_robot_pose_file,
-    read_transform_file,
-    write_zivid_transform,
-)
 from handeye_pick.errors import CalibrationError, TransformError
 from handeye_pick.geometry import (
     compose,
@@ -31,6 +21,16 @@ from handeye_pick.geometry import (
     scale_translation,
     transform_point,
     ur_pose_to_matrix,
+)
+from handeye_pick.hand_eye.files import (
+    CELL_CONFIG,
+    COMMAND_LINE,
+    HandEyeMode,
+    file_sha256,
+    load_hand_eye,
+    read_robot_pose_file,
+    read_transform_file,
+    write_zivid_transform,
 )
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "config" / "calibration"

@@ -11,22 +11,6 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from handeye_pick.calibration.files import (
-    CELL_CONFIG,
-    COMMAND_LINE,
-    HandEyeCalibration,
-    HandEyeMode,
-    SettingNames,
-    load_hand_eye,
-)
-from handeye_pick.calibration.plausibility import (
-    CAMERA_POSITION_TOLERANCE_MM,
-    CHECKS,
-    MeasuredCamera,
-    chain_problems,
-    measured_position_problem,
-    refuse_implausible,
-)
 from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import WorkspaceConfig
 from handeye_pick.detection import detection_from_point_mm, load_detection
@@ -39,6 +23,22 @@ from handeye_pick.geometry import (
     rotation_angle_between,
     rotation_from_rotvec,
     ur_pose_to_matrix,
+)
+from handeye_pick.hand_eye.files import (
+    CELL_CONFIG,
+    COMMAND_LINE,
+    HandEyeCalibration,
+    HandEyeMode,
+    SettingNames,
+    load_hand_eye,
+)
+from handeye_pick.hand_eye.plausibility import (
+    CAMERA_POSITION_TOLERANCE_MM,
+    CHECKS,
+    MeasuredCamera,
+    chain_problems,
+    measured_position_problem,
+    refuse_implausible,
 )
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -447,7 +447,7 @@ def test_acknowledging_one_check_lets_only_that_one_through() -> None:
 
 
 def test_check_names_are_the_documented_ones() -> None:
-    import handeye_pick.calibration.plausibility as module
+    import handeye_pick.hand_eye.plausibility as module
 
     assert module.__doc__ is not None
     for check in CHECKS:

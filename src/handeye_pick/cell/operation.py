@@ -1,0 +1,93 @@
+"""The one skeleton every motion of a cell runs (a pick, a place, a named pose, a touch test):
+halt guard, readiness, pre-flight, the plan on disk before the first motion command, the moves,
+the outcome after, whatever the ending.
+
+Frames and units: ``T_flange_tcp`` and ``T_base_tcp_start`` are float64 4x4 in metres.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
+
+from handeye_pick.cell.records import audited_outcome, blends_record, steps_record
+from handeye_pick.cell.sequence import Executed, execute
+from handeye_pick.cell.state import CellState
+from handeye_pick.geometry import Transform
+from handeye_pick.gripper import GraspState
+from handeye_pick.safety import CheckResult
+from handeye_pick.steps import Step
+
+
+@dataclass(frozen=True)
+class Planned:
+    """A sequence ready to run: its steps, the checks they all passed, and the fields of its
+    plan record beyond the context, the targets and the checks."""
+
+    steps: list[Step]
+    checks: list[CheckResult]
+    record: dict[str, object]
+    T_base_tcp_start: Transform | None = None  # where the TCP stands as it starts (m), if known
+
+
+Prepare = Callable[[Transform, dict[str, object], dict[str, object]], Planned]
+"""Plans and checks a sequence, given the active TCP offset ``T_flange_tcp`` (m), the context
+of its records and its outcome record (both may gain fields: the capture, refused candidates)."""
+
+Finish = Callable[[Executed | None], dict[str, object]]
+"""The outcome's ``status`` and own fields once the steps ran (None: a dry run)."""
+
+
+def run_operation(
+    state: CellState,
+    context: dict[str, object],
+    prepare: Prepare,
+    finish: Finish,
+    *,
+    outcome_fields: dict[str, object],
+    dry_run: bool = False,
+    before_move: Callable[[str], None] | None = None,
+    holding: GraspState | None = None,
+) -> str:
+    """Run one motion operation of the cell; returns its pick id.
+
+    In order: a new pick id in the audit; the halt guard; readiness (the controller, the
+    session's program, the active TCP offset); ``prepare`` (plan and pre-flight, which refuse
+    before anything moved); the plan record on disk; the steps (none for a dry run); the outcome
+    record with ``finish``'s status. The outcome is appended whatever the ending, and a robot
+    error halts the cell (``CellState.halt_on_fault``). ``context`` goes into both records;
+    ``holding`` is a part already carried, watched on every move.
+    """
+    audit = state.next_operation()
+    outcome: dict[str, object] = {"event": "outcome", **context, **outcome_fields}
+    state.tell_status({"pick_id": audit.pick_id, **context, **outcome_fields})
+    with state.told_after(), state.halt_on_fault(), audited_outcome(audit, outcome):
+        state.ensure_not_halted()
+        planned = prepare(state.ready_tcp_offset(), context, outcome)
+        audit.append(
+            {
+                "event": "plan",
+                **context,
+                **planned.record,
+                "targets": steps_record(planned.steps),
+                **blends_record(planned.steps),
+                "checks": [asdict(check) for check in planned.checks],
+            }
+        )
+        if state.observer is not None:
+            state.observer.on_plan(planned.steps, planned.T_base_tcp_start)
+        done = None
+        if not dry_run:
+            done = execute(
+                state.config,
+                planned.steps,
+                state.link.arm,
+                state.progress,
+                outcome,
+                before_move,
+                state.link.gripper,
+                holding,
+                state.watch,
+            )
+        outcome.update(finish(done))
+    return audit.pick_id
