@@ -110,10 +110,12 @@ def test_the_figures_of_a_known_shift(write: Write) -> None:
         "fault": 1,
         "dropped": 0,
         "aborted": 0,
+        "stopped": 0,
         "interrupted": 1,
     }
     assert (report.places_done, report.dry_runs, report.abandoned) == (1, 0, 0)
     assert (report.faults, report.stops, report.halts, report.halted_refusals) == (2, 1, 2, 2)
+    assert (report.interrupts, report.stop_requests, report.connect_faults) == (1, 0, 0)
     assert (report.resumes, report.resumes_not_ready) == (1, 0)
     assert (report.start, report.end) == (at("6:00:00").timestamp(), at("7:20:00").timestamp())
     assert report.halted_s == 60.0 + 599.0
@@ -154,6 +156,59 @@ def test_a_fault_while_halted_starts_no_halt_of_its_own(write: Write) -> None:
     assert [f.started_halt for f in report.fault_list] == [True, False]
     assert report.fault_list[1].operation == "connect"
     assert report.cycles == 1  # a failed connect is no cycle
+
+
+def test_a_stop_request_halts_the_cell_and_counts_as_a_stop_not_a_fault(
+    write: Write, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _pick(write, "6:00:00", "6:00:02", "placed")
+    stop = {"type": "StopRequested", "message": "stopped by request 7"}
+    _pick(write, "6:00:05", "6:00:06", "stopped", step="approach", error=stop)
+    write("6:00:30", {"event": "outcome", "status": "halted", "error": {"type": "CellHalted"}})
+    write("6:01:06", {"event": "resume", "request_id": "r8", "status": "ready"})
+    _pick(write, "6:01:10", "6:01:12", "placed")  # after a stop: no cycle time
+    path = _pick(write, "6:01:15", "6:01:20", "placed")
+    report = shift_report(path, tz=UTC)
+    assert report.statuses["stopped"] == 1
+    assert (report.stops, report.stop_requests, report.interrupts) == (1, 1, 0)
+    assert (report.faults, report.halts, report.halted_s, report.halted_refusals) == (0, 1, 60.0, 1)
+    (stopped,) = report.fault_list
+    assert (stopped.status, stopped.started_halt, stopped.ended_by) == ("stopped", True, "resume")
+    assert report.cycle_times.count == 1  # 8 s; the interval across the stop is left out
+    assert main(["report", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "faults 0, stops 1 (1 stop request, 0 Ctrl-C or SIGTERM), halts 1" in out
+    assert "stood 0:01:00 until resume: StopRequested: stopped by request 7" in out
+
+
+def test_a_failed_connect_is_a_fault_that_halts_nothing(
+    write: Write, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A one-shot pick that could not connect ran no session: no cell stood halted after it.
+    _pick(write, "6:00:00", "6:00:02", "placed")
+    connect = {"event": "outcome", "step": "connect", "reached": {}, "status": "fault"}
+    write("6:00:30", connect | {"error": {"type": "RobotConnectionError", "message": "refused"}})
+    path = _pick(write, "6:10:00", "6:10:02", "placed")
+    report = shift_report(path, tz=UTC)
+    assert (report.faults, report.connect_faults, report.halts, report.halted_s) == (1, 1, 0, 0.0)
+    assert [(f.operation, f.started_halt) for f in report.fault_list] == [("connect", False)]
+    assert main(["report", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "faults 1 (1 failing to connect)" in out
+    assert "connect            no session, no halt: RobotConnectionError: refused" in out
+
+
+def test_the_text_says_one_pick_and_a_halt_still_open(
+    write: Write, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _pick(write, "6:00:00", "6:00:02", "placed")
+    path = _pick(write, "6:00:05", "6:00:07", "fault", step="grasp", error={"type": "RobotFault"})
+    write("6:00:37", {"event": "outcome", "status": "halted", "error": {"type": "CellHalted"}})
+    assert main(["report", str(path), "--since", "2026-12-02T06:00:00+00:00"]) == 0
+    out = capsys.readouterr().out
+    assert "pick outcomes 3: placed 1," in out
+    assert "    1 pick       3 outcomes      1 fault" in out
+    assert "stood 0:00:30, still halted at the end: RobotFault" in out
 
 
 def test_since_and_until_count_the_window_and_clip_the_halts(write: Write) -> None:
@@ -255,7 +310,7 @@ def test_the_command_warns_once_for_what_it_skipped(
         file.write(b'{"schema": 2, "timest')
     assert main(["report", str(path)]) == 0
     out, err = capsys.readouterr()
-    assert "cycles 13: placed 6" in out
+    assert "pick outcomes 13: placed 6" in out
     assert len(err.strip().splitlines()) == 1
     assert "1 torn or non-JSON lines" in err
 
@@ -267,6 +322,13 @@ def test_the_plot_is_a_png(
     assert main(["report", str(_known_shift(write)), "--plot", str(picture)]) == 0
     assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert f"drawn to {picture}" in capsys.readouterr().out
+
+
+def test_the_plot_of_a_shift_without_a_cycle_time(write: Write, tmp_path: Path) -> None:
+    picture = tmp_path / "one-pick.png"
+    path = _pick(write, "6:00:00", "6:00:02", "placed")
+    assert main(["report", str(path), "--plot", str(picture)]) == 0
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 @pytest.mark.parametrize("problem", ["missing", "folder", "newer", "time", "window", "plot"])

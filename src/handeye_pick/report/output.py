@@ -8,7 +8,11 @@ from __future__ import annotations
 
 from handeye_pick.report.shift import Fault, ShiftReport
 
-_ENDED_BY = {"resume": "resume", "plan": "a new session", None: "still halted at the end"}
+_ENDED_BY = {
+    "resume": " until resume",
+    "plan": " until a new session",
+    None: ", still halted at the end",
+}
 
 
 def report_json(report: ShiftReport) -> dict[str, object]:
@@ -27,7 +31,10 @@ def report_json(report: ShiftReport) -> dict[str, object]:
         "places_done": report.places_done,
         "abandoned": report.abandoned,
         "faults": report.faults,
+        "connect_faults": report.connect_faults,
         "stops": report.stops,
+        "stop_requests": report.stop_requests,
+        "interrupts": report.interrupts,
         "halts": report.halts,
         "halted_refusals": report.halted_refusals,
         "resumes": report.resumes,
@@ -86,11 +93,14 @@ def report_text(report: ShiftReport) -> str:
         f"shift report of {report.path}",
         f"  from {_clock(report, report.start)} to {_clock(report, report.end)} "
         f"({_duration(report.span_s)})",
-        f"  cycles {report.cycles}: "
+        f"  pick outcomes {report.cycles}: "
         + ", ".join(f"{status} {n}" for status, n in report.statuses.items()),
         f"  places after a pick {report.places_done}, dry runs {report.dry_runs}, "
         f"abandoned {report.abandoned}",
-        f"  faults {report.faults}, stops {report.stops}, halts {report.halts} "
+        f"  faults {report.faults}"
+        + (f" ({report.connect_faults} failing to connect)" if report.connect_faults else "")
+        + f", stops {report.stops} ({_count(report.stop_requests, 'stop request')}, "
+        f"{report.interrupts} Ctrl-C or SIGTERM), halts {report.halts} "
         f"(halted {_duration(report.halted_s)}, {100.0 * report.halted_share:.1f} % of the time), "
         f"refused while halted {report.halted_refusals}, resumes {report.resumes} "
         f"(+{report.resumes_not_ready} not ready)",
@@ -105,17 +115,21 @@ def report_text(report: ShiftReport) -> str:
     if report.hours:
         lines.append("  picks per hour:")
         lines += [
-            f"    {_clock(report, h.start)}  {h.picks:5d} picks  {h.cycles:5d} cycles"
-            + (f"  {h.faults} faults" if h.faults else "")
+            f"    {_clock(report, h.start)}  {_count(h.picks, 'pick', 5):11}  "
+            f"{_count(h.cycles, 'outcome', 5):14}"
+            + (f"  {_count(h.faults, 'fault', 5)}" if h.faults else "")
             for h in report.hours
         ]
     if report.fault_list:
-        lines.append("  faults (time, status, operation/step, how long the cell stood, reason):")
+        lines.append(
+            "  faults and stop requests (time, status, operation/step, how long the cell stood, "
+            "reason):"
+        )
         lines += [_fault_line(report, fault) for fault in report.fault_list]
     if report.faults_left_out:
         lines.append(
-            f"    ({report.faults_left_out} faults between the first and the last "
-            f"{len(report.fault_list) // 2} left out; --json lists the same)"
+            f"    ({report.faults_left_out} faults and stop requests between the first and the "
+            f"last {len(report.fault_list) // 2} left out; --json lists the same)"
         )
     return "\n".join(lines)
 
@@ -136,11 +150,11 @@ def _histogram_lines(report: ShiftReport) -> list[str]:
 
 
 def _fault_line(report: ShiftReport, fault: Fault) -> str:
-    where = fault.operation + (f"/{fault.step}" if fault.step else "")
+    where = fault.operation + (f"/{fault.step}" if fault.step not in (None, "connect") else "")
     if fault.started_halt:
-        stood = (
-            f"stood {_duration(_stood_s(report, fault) or 0.0)} until {_ENDED_BY[fault.ended_by]}"
-        )
+        stood = f"stood {_duration(_stood_s(report, fault) or 0.0)}{_ENDED_BY[fault.ended_by]}"
+    elif fault.operation == "connect":
+        stood = "no session, no halt"
     else:
         stood = "while already halted"
     return (
@@ -179,6 +193,11 @@ def _iso(report: ShiftReport, t: float | None) -> str | None:
 
 def _clock(report: ShiftReport, t: float | None) -> str:
     return "-" if t is None else report.local(t).strftime("%Y-%m-%d %H:%M:%S %z")
+
+
+def _count(n: int, noun: str, width: int = 1) -> str:
+    """``n`` (right-aligned in ``width``) and ``noun``, plural unless ``n`` is 1."""
+    return f"{n:{width}d} {noun}" + ("s" if n != 1 else "")
 
 
 def _duration(seconds: float) -> str:

@@ -21,6 +21,7 @@ FIGURE_SIZE_IN = (14.0, 8.0)
 FIGURE_DPI = 100
 _HALT_COLOUR = "tab:red"
 _PICK_COLOUR = "tab:blue"
+_STOP_COLOUR = "tab:orange"  # an operator's stop request: it halts, but is no fault
 
 
 def render_report(report: ShiftReport, path: Path) -> None:
@@ -37,7 +38,7 @@ def render_report(report: ShiftReport, path: Path) -> None:
     _cycle_times(fig.add_subplot(grid[:, 1]), report)
     statuses = report.statuses
     fig.suptitle(
-        f"{report.path.name}: {report.cycles} cycles, {statuses['placed']} placed, "
+        f"{report.path.name}: {report.cycles} pick outcomes, {statuses['placed']} placed, "
         f"{statuses['picked']} picked, {statuses['missed']} missed, "
         f"{statuses['no-candidate']} no candidate  |  {report.faults} faults, "
         f"halted {100.0 * report.halted_share:.1f} % of the time",
@@ -65,6 +66,8 @@ def _hour_ticks(ax: Axes, report: ShiftReport) -> None:
 
 
 def _throughput(ax: Axes, report: ShiftReport) -> None:
+    from matplotlib.ticker import MaxNLocator
+
     ax.set_title("picks per hour (placed or picked)")
     positions = [_hours(report, hour.start) + 0.5 for hour in report.hours]
     picks = [hour.picks for hour in report.hours]
@@ -82,6 +85,7 @@ def _throughput(ax: Axes, report: ShiftReport) -> None:
             )
     _hour_ticks(ax, report)
     ax.tick_params(labelbottom=True)
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))  # whole picks, never 0.2 of one
     ax.set_ylabel("picks")
     ax.grid(True, axis="y", linewidth=0.3)
 
@@ -89,32 +93,47 @@ def _throughput(ax: Axes, report: ShiftReport) -> None:
 def _cycle_times(ax: Axes, report: ShiftReport) -> None:
     cycle = report.cycle_times
     ax.set_title("cycle time: completed pick to the next")
+    if cycle.count == 0:
+        # An empty histogram would draw a meaningless axis around zero.
+        ax.text(
+            0.5,
+            0.5,
+            "no cycle time: it needs two completed picks\nwith no fault or stop between them",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+        )
+        ax.set_axis_off()
+        return
     edges = [cycle.low_s + index * cycle.bin_s for index in range(len(cycle.counts))]
     ax.bar(edges, cycle.counts, width=cycle.bin_s * 0.9, align="edge", color=_PICK_COLOUR)
     if cycle.median_s is not None and cycle.p90_s is not None:
-        for value, name, style in ((cycle.median_s, "median", "-"), (cycle.p90_s, "p90", "--")):
+        # The two labels on two rows: median and p90 are often a bin apart.
+        lines = ((cycle.median_s, "median", "-", -14), (cycle.p90_s, "p90", "--", -28))
+        for value, name, style, row in lines:
             ax.axvline(value, color="black", linestyle=style, linewidth=1.2)
             ax.annotate(
                 f"{name} {value:.1f} s",
                 (value, 1.0),
                 xycoords=("data", "axes fraction"),
-                xytext=(4, -14),
+                xytext=(4, row),
                 textcoords="offset points",
             )
     outside = [f"{n} {what}" for n, what in ((cycle.under, "shorter"), (cycle.over, "longer")) if n]
     if outside:
         ax.text(0.98, 0.95, ", ".join(outside), transform=ax.transAxes, ha="right")
     ax.set_xlabel("seconds")
-    ax.set_ylabel("cycles")
+    ax.set_ylabel("intervals")
     ax.grid(True, axis="y", linewidth=0.3)
 
 
 def _timeline(ax: Axes, report: ShiftReport) -> None:
-    ax.set_title("faults (red marks) and halted stretches (red bands)")
+    ax.set_title("faults and stop requests (marks) and halted stretches (red bands)")
     end = report.end if report.end is not None else 0.0
     for fault in report.fault_list:
         x = _hours(report, fault.time)
-        ax.plot([x], [0.5], marker="v", color=_HALT_COLOUR, markersize=10)
+        colour = _STOP_COLOUR if fault.status == "stopped" else _HALT_COLOUR
+        ax.plot([x], [0.5], marker="v", color=colour, markersize=10)
         if fault.started_halt:
             until = fault.halt_end if fault.halt_end is not None else end
             ax.axvspan(x, max(x, _hours(report, until)), color=_HALT_COLOUR, alpha=0.3)

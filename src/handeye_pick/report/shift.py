@@ -8,14 +8,17 @@ Definitions (docs/report.md says them for the operator):
   counted apart. The cycles' statuses sum to the cycles; ``no-candidate`` is a ``refused``
   outcome whose error is a plan refusal (no candidate passed every check).
 - A *fault* is an outcome of any operation with status fault, dropped or aborted: the cell
-  halts. The *halt* it starts ends at the next ``resume`` record with status ready, or at the
-  first plan after it if there is none before (a new session starts unhalted); a halt still
-  open at the end of the window lasts to the end. A fault while the cell already stands halted
-  is listed but starts no halt of its own.
+  halts. An operator's stop request (outcome ``stopped``) halts it too, and is listed with the
+  faults though not counted as one. The *halt* either starts ends at the next ``resume`` record
+  with status ready, or at the first plan after it if there is none before (a new session
+  starts unhalted); a halt still open at the end of the window lasts to the end. A fault while
+  the cell already stands halted, and a failed connect (no session ran, so none halted), are
+  listed but start no halt.
+- *Stops* are the outcomes ``stopped`` (a stop request) and ``interrupted`` (Ctrl-C, SIGTERM).
 - *Cycle time* is the time from one completed pick's outcome (placed or picked) to the next:
   the time per part, waits for parts and refused candidates included. An interval that holds a
-  fault, a stop (Ctrl-C, SIGTERM) or an abandoned outcome is left out (the cell was not
-  producing); so is one that starts before the window.
+  fault, a stop or an abandoned outcome is left out (the cell was not producing); so is one
+  that starts before the window.
 
 Times are seconds since the epoch inside, printed in the zone ``tz`` (the machine's own when
 None). Memory: counts, one bucket per hour, the first and last ``KEPT_FAULTS`` faults in full,
@@ -37,6 +40,8 @@ from handeye_pick.errors import Status
 
 FAULTS = frozenset(s.value for s in (Status.FAULT, Status.DROPPED, Status.ABORTED))
 """Outcome statuses of a robot error: the cell halts until ``resume``."""
+HALTING = FAULTS | {Status.STOPPED.value}
+"""Outcome statuses that halt the cell: the faults and an operator's stop request."""
 COMPLETED = frozenset(s.value for s in (Status.PLACED, Status.PICKED))
 """Pick outcomes with a part in the gripper or placed: what a cycle time runs between."""
 PLAN_REFUSALS = frozenset({"NoFeasibleCandidate", "PreflightRefusal"})
@@ -54,6 +59,7 @@ STATUSES = tuple(
         Status.FAULT,
         Status.DROPPED,
         Status.ABORTED,
+        Status.STOPPED,
         Status.INTERRUPTED,
     )
 )
@@ -69,21 +75,23 @@ KNOWN_EVENTS = frozenset({"capture", "plan", "outcome", "resume"})
 _ABANDONED = "abandoned"
 _DONE, _DRY_RUN, _HALTED = Status.DONE.value, Status.DRY_RUN.value, Status.HALTED.value
 _INTERRUPTED, _REFUSED = Status.INTERRUPTED.value, Status.REFUSED.value
+_STOPPED = Status.STOPPED.value
 _NO_CANDIDATE, _READY = Status.NO_CANDIDATE.value, Status.READY.value
 
 
 @dataclass
 class Fault:
-    """One fault outcome and the halt it started. Times are seconds since the epoch."""
+    """One outcome that halts the cell (a fault, or a stop request: ``HALTING``) and the halt it
+    started. Times are seconds since the epoch."""
 
     time: float
-    status: str  # fault, dropped or aborted
+    status: str  # fault, dropped, aborted or stopped
     operation: str  # pick, place, move <pose>, connect
     step: str | None  # the step running when it happened (None: not recorded)
     reason: str  # the error's type and message
     request_id: str | None
     pick_id: str
-    started_halt: bool  # False: the cell already stood halted
+    started_halt: bool  # False: the cell already stood halted, or the connect failed
     halt_end: float | None = None  # when the halt ended (None: still open at the end)
     ended_by: str | None = None  # "resume", "plan" (a new session) or None
 
@@ -130,7 +138,10 @@ class ShiftReport:
     places_done: int  # place requests (after a pick without place) that put a part down
     abandoned: int
     faults: int
-    stops: int  # interrupted outcomes of any operation (Ctrl-C, SIGTERM)
+    connect_faults: int  # of ``faults``: connects that failed (no session, no halt)
+    stops: int  # stop requests and interrupts: ``stop_requests`` + ``interrupts``
+    stop_requests: int  # stopped outcomes of any operation (run's stop request)
+    interrupts: int  # interrupted outcomes of any operation (Ctrl-C, SIGTERM)
     halted_refusals: int  # outcomes of any operation refused because the cell stood halted
     halts: int
     halted_s: float
@@ -213,7 +224,7 @@ class Tally:
 
     def _outcome(self, record: dict[str, object], t: float, inside: bool) -> None:
         status = str(record.get("status"))
-        if status in FAULTS:
+        if status in HALTING:
             self._fault(record, status, t, inside)
         if status in (_INTERRUPTED, _ABANDONED):
             self.previous_done = None  # the cell was not producing across it
@@ -223,7 +234,9 @@ class Tally:
         if status == _ABANDONED:
             self.counts["abandoned"] += 1
         elif status == _INTERRUPTED:
-            self.counts["stops"] += 1
+            self.counts["interrupts"] += 1
+        elif status == _STOPPED:
+            self.counts["stop_requests"] += 1
         elif status == _HALTED:
             self.counts["halted_refusals"] += 1
         if operation == "place" and status == _DONE:
@@ -249,22 +262,25 @@ class Tally:
 
     def _fault(self, record: dict[str, object], status: str, t: float, inside: bool) -> None:
         self.previous_done = None
+        operation = _operation(record)
         fault = Fault(
             time=t,
             status=status,
-            operation=_operation(record),
+            operation=operation,
             step=_optional_str(record.get("step")),
             reason=_reason(record),
             request_id=_optional_str(record.get("request_id")),
             pick_id=str(record.get("pick_id")),
-            started_halt=self.open_halt is None,
+            started_halt=self.open_halt is None and operation != "connect",
         )
-        if self.open_halt is None:
+        if fault.started_halt:
             self.open_halt = fault
         if not inside:
             return
-        self.counts["faults"] += 1
-        self._hour(t)["faults"] += 1
+        if status in FAULTS:
+            self.counts["faults"] += 1
+            self.counts["connect_faults"] += operation == "connect"
+            self._hour(t)["faults"] += 1
         if len(self.first_faults) < KEPT_FAULTS:
             self.first_faults.append(fault)
         else:
@@ -329,7 +345,10 @@ class Tally:
             places_done=self.counts["places_done"],
             abandoned=self.counts["abandoned"],
             faults=self.counts["faults"],
-            stops=self.counts["stops"],
+            connect_faults=self.counts["connect_faults"],
+            stops=self.counts["stop_requests"] + self.counts["interrupts"],
+            stop_requests=self.counts["stop_requests"],
+            interrupts=self.counts["interrupts"],
             halted_refusals=self.counts["halted_refusals"],
             halts=halts,
             halted_s=halted_s,
@@ -338,7 +357,7 @@ class Tally:
             hours=self._every_hour(),
             cycle_times=_cycle_times(self.cycle_times),
             fault_list=kept,
-            faults_left_out=self.counts["faults"] - len(kept),
+            faults_left_out=self.counts["faults"] + self.counts["stop_requests"] - len(kept),
             torn=self.counts["torn"],
             torn_offsets=self.torn_offsets,
             unknown_kinds=dict(self.unknown),
