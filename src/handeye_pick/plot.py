@@ -39,6 +39,11 @@ _AXIS_COLOURS = ("tab:red", "tab:green", "tab:blue")
 _TRIAD_FRACTION = 0.06  # triad length as a fraction of the scene's largest extent
 _M_TO_MM = 1000.0
 _SAME_PLACE_MM = 5.0  # frame origins closer than this on a view share one label
+# Labels on the 2D views, in axes fractions of a view about 500 px across (FIGURE_SIZE_PX).
+_LABEL_FONT_PT = 8
+_LABEL_CHAR_WIDTH = 0.012  # an 8 pt character is about 5.5 px wide
+_LABEL_LINE = 0.03  # one 8 pt line and a little air
+_LABEL_GAP = 0.01  # between an origin and its label
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,6 +100,36 @@ def cloud_to_base_m(
     return out
 
 
+def view_cube(scene: Scene) -> tuple[NDArray[np.float64], float]:
+    """The cube every view shows (centre in base mm, half its edge in mm): the frames, the TCP
+    path, the scene's boxes and the cloud with a margin, at least 100 mm either way.
+
+    The workspace box does not size the views: a 1.6 m workspace would shrink a pick's frames
+    to one smear. Its edges are drawn where they fall inside the cube, and the caption gives its
+    bounds."""
+    points = [T[:3, 3] * _M_TO_MM for _, T in scene_frames(scene)]
+    points += [corner for edges in _obstacle_edges(scene) for edge in edges for corner in edge]
+    cloud = scene.cloud_base_m
+    if cloud is not None and len(cloud) > 0:
+        points += [cloud.min(axis=0) * _M_TO_MM, cloud.max(axis=0) * _M_TO_MM]
+    lo, hi = np.min(points, axis=0), np.max(points, axis=0)
+    return (lo + hi) / 2.0, max(float(np.max(hi - lo)) / 2.0 * 1.15, 100.0)
+
+
+def caption(scene: Scene) -> str:
+    """The line over the picture: mode, calibration, frame and units, and what each colour is."""
+    lo = np.array(scene.workspace_min_m) * _M_TO_MM
+    hi = np.array(scene.workspace_max_m) * _M_TO_MM
+    workspace = ", ".join(f"{'xyz'[i]} {lo[i]:.0f}..{hi[i]:.0f}" for i in range(3))
+    parts = [
+        scene.mode,
+        f"calibration: {scene.calibration_file}",
+        "robot base frame, mm; axes x red, y green, z blue; dashed: TCP path; "
+        f"orange: workspace ({workspace})" + ("; grey: scene" if scene.obstacles else ""),
+    ]
+    return "  |  ".join(parts)
+
+
 def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
     """Write the scene as a PNG of ``FIGURE_SIZE_PX`` to ``path``.
 
@@ -105,21 +140,13 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
     frames = scene_frames(scene)
     origins_mm = {label: T[:3, 3] * _M_TO_MM for label, T in frames}
     path_mm = np.array([scene.T_base_tcp[:3, 3]] + [T[:3, 3] for _, T in scene.tcp_path]) * _M_TO_MM
-    box_min_mm = np.array(scene.workspace_min_m) * _M_TO_MM
-    box_max_mm = np.array(scene.workspace_max_m) * _M_TO_MM
     cloud_mm = None if scene.cloud_base_m is None else scene.cloud_base_m * _M_TO_MM
-
-    obstacle_edges = [_oriented_box_edges(size, T) for _, size, T in scene.obstacles]
-
-    # One cube around everything so all three views share the same scale.
-    extent_points = [*origins_mm.values(), box_min_mm, box_max_mm]
-    extent_points += [point for edges in obstacle_edges for edge in edges for point in edge]
-    if cloud_mm is not None and len(cloud_mm) > 0:
-        extent_points.extend([cloud_mm.min(axis=0), cloud_mm.max(axis=0)])
-    lo = np.min(extent_points, axis=0)
-    hi = np.max(extent_points, axis=0)
-    centre = (lo + hi) / 2.0
-    half = max(float(np.max(hi - lo)) / 2.0 * 1.1, 100.0)
+    centre, half = view_cube(scene)
+    cube = (centre - half, centre + half)
+    workspace_edges = _box_edges(
+        np.array(scene.workspace_min_m) * _M_TO_MM, np.array(scene.workspace_max_m) * _M_TO_MM
+    )
+    obstacle_edges = _obstacle_edges(scene)
     triad_mm = 2.0 * half * _TRIAD_FRACTION
 
     from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -148,10 +175,12 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
             ax.set_aspect("equal")
             ax.grid(True, linewidth=0.3)
         d = list(dims)
-        for a, b in _box_edges(box_min_mm, box_max_mm):
+        # A 2D view clips what lies outside it; the 3D view does not, so its lines are cut.
+        three_d = len(dims) == 3
+        for a, b in _clipped(workspace_edges, *cube) if three_d else workspace_edges:
             ax.plot(*np.stack([a[d], b[d]]).T, color="tab:orange", linewidth=0.8)
         for edges in obstacle_edges:
-            for a, b in edges:
+            for a, b in _clipped(edges, *cube) if three_d else edges:
                 ax.plot(*np.stack([a[d], b[d]]).T, color="tab:gray", linewidth=0.8)
         if cloud_mm is not None:
             _scatter(ax, cloud_mm, d)
@@ -161,19 +190,70 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
             for axis, colour in enumerate(_AXIS_COLOURS):
                 tip = origin + T[:3, axis] * triad_mm
                 ax.plot(*np.stack([origin[d], tip[d]]).T, color=colour, linewidth=2)
-        for label, origin in _merged_labels(origins_mm, d):
-            _label(ax, origin, d, label)
+        labels = _merged_labels(origins_mm, d)
+        if _is_3d(ax):
+            for label, origin in labels:
+                ax.text(origin[0], origin[1], origin[2], f" {label}", fontsize=8)
+        else:
+            _spread_labels(ax, labels, d, centre, half)
 
-    fig.suptitle(
-        f"{scene.mode}  |  calibration: {scene.calibration_file}  |  robot base frame, mm; "
-        "axes x red, y green, z blue; dashed: TCP path; orange: workspace; grey: scene",
-        fontsize=10,
-    )
+    fig.suptitle(caption(scene), fontsize=10)
     try:
         fig.savefig(path, format="png")
     except OSError as exc:
         raise InputError(f"writing the scene picture {path}: {exc.strerror or exc}") from None
     return origins_mm
+
+
+def label_places(anchors: NDArray[np.float64], labels: list[str]) -> list[tuple[float, float]]:
+    """Where each label's text goes on a 2D view (axes fractions, 0..1 across), so that no two
+    overlap: each starts just right of its anchor and, where it would cover a label already
+    placed, moves below the lowest one it covers (top labels are placed first). ``anchors`` are
+    (N, 2) in axes fractions; a text's box is estimated from its length at ``_LABEL_FONT_PT``."""
+    placed: list[tuple[float, float, float]] = []  # left, middle height, width
+    places: list[tuple[float, float]] = [(0.0, 0.0)] * len(labels)
+    for index in sorted(range(len(labels)), key=lambda i: -anchors[i][1]):
+        left = float(anchors[index][0]) + _LABEL_GAP
+        width = len(labels[index]) * _LABEL_CHAR_WIDTH
+        height = float(anchors[index][1])
+        while covered := [
+            other_height
+            for other_left, other_height, other_width in placed
+            if left < other_left + other_width
+            and other_left < left + width
+            # less a hair, so a label moved exactly one line down is clear of it
+            and abs(height - other_height) < _LABEL_LINE - 1e-9
+        ]:
+            height = min(covered) - _LABEL_LINE
+        placed.append((left, height, width))
+        places[index] = (left, height)
+    return places
+
+
+def _spread_labels(
+    ax: Axes,
+    labels: list[tuple[str, NDArray[np.float64]]],
+    dims: list[int],
+    centre: NDArray[np.float64],
+    half: float,
+) -> None:
+    """The frames' names on a 2D view, each beside its origin or, where names would cover each
+    other, moved down with a thin line back to the origin."""
+    low = centre[dims] - half
+    anchors = np.array([(origin[dims] - low) / (2.0 * half) for _, origin in labels])
+    for (label, origin), (x, y) in zip(
+        labels, label_places(anchors, [n for n, _ in labels]), strict=True
+    ):
+        moved = abs(y - float((origin[dims[1]] - low[1]) / (2.0 * half))) > 1e-9
+        ax.annotate(
+            label,
+            (origin[dims[0]], origin[dims[1]]),
+            xytext=(x, y),
+            textcoords="axes fraction",
+            fontsize=_LABEL_FONT_PT,
+            va="center",
+            arrowprops={"arrowstyle": "-", "color": "0.5", "linewidth": 0.5} if moved else None,
+        )
 
 
 def _merged_labels(
@@ -213,14 +293,6 @@ def _scatter(ax: Axes, points_mm: NDArray[np.float64], dims: list[int]) -> None:
         )
 
 
-def _label(ax: Axes, origin_mm: NDArray[np.float64], dims: list[int], label: str) -> None:
-    """A frame's name next to its origin on one view."""
-    if _is_3d(ax):
-        ax.text(origin_mm[0], origin_mm[1], origin_mm[2], f" {label}", fontsize=8)
-    else:
-        ax.text(origin_mm[dims[0]], origin_mm[dims[1]], f" {label}", fontsize=8)
-
-
 def _is_3d(ax: Axes) -> TypeGuard[Axes3D]:
     from mpl_toolkits.mplot3d.axes3d import Axes3D  # loaded already by render_scene
 
@@ -241,6 +313,36 @@ def _box_edges(
         for b in corners[k + 1 :]
         if np.count_nonzero(a != b) == 1
     ]
+
+
+def _obstacle_edges(
+    scene: Scene,
+) -> list[list[tuple[NDArray[np.float64], NDArray[np.float64]]]]:
+    """Each scene box's 12 edges in base mm."""
+    return [_oriented_box_edges(size, T) for _, size, T in scene.obstacles]
+
+
+def _clipped(
+    edges: list[tuple[NDArray[np.float64], NDArray[np.float64]]],
+    lo: NDArray[np.float64],
+    hi: NDArray[np.float64],
+) -> list[tuple[NDArray[np.float64], NDArray[np.float64]]]:
+    """The parts of ``edges`` inside the box ``lo``..``hi`` (mm): the 3D view does not clip
+    what is drawn outside its limits, so lines are cut before they are drawn."""
+    kept = []
+    for a, b in edges:
+        start, end = 0.0, 1.0
+        step = b - a
+        for axis in range(3):
+            if abs(step[axis]) < 1e-12:
+                if not lo[axis] <= a[axis] <= hi[axis]:
+                    start, end = 1.0, 0.0
+                continue
+            t0, t1 = sorted(((lo[axis] - a[axis]) / step[axis], (hi[axis] - a[axis]) / step[axis]))
+            start, end = max(start, t0), min(end, t1)
+        if start < end:
+            kept.append((a + start * step, a + end * step))
+    return kept
 
 
 def _oriented_box_edges(

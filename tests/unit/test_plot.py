@@ -16,7 +16,16 @@ from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import invert, make_transform, rotation_from_rotvec, ur_pose_to_matrix
 from handeye_pick.hand_eye.files import HandEyeCalibration, load_hand_eye
-from handeye_pick.plot import FIGURE_SIZE_PX, Scene, cloud_to_base_m, render_scene
+from handeye_pick.plot import (
+    FIGURE_SIZE_PX,
+    Scene,
+    caption,
+    cloud_to_base_m,
+    label_places,
+    render_scene,
+    scene_frames,
+    view_cube,
+)
 from handeye_pick.scene.layout import scene_boxes
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -134,3 +143,35 @@ def test_the_scene_s_boxes_are_drawn_in_grey(tmp_path: Path) -> None:
         return int(((spread < 0.05) & (rgb[:, :, 0] > 0.35) & (rgb[:, :, 0] < 0.65)).sum())
 
     assert grey(with_bin) > grey(plain) + 500
+
+
+def test_the_views_fit_the_frames_not_the_workspace() -> None:
+    """A 1.6 m workspace must not shrink a pick's frames to one smear: the views are sized by the
+    frames (the base included), and every frame lies inside them."""
+    scene = demo_scene(demo_calibration())
+    centre, half = view_cube(scene)
+    assert half < 400.0  # the workspace is 1600 mm across
+    for label, T in scene_frames(scene):
+        assert np.all(np.abs(T[:3, 3] * 1000.0 - centre) <= half), label
+
+
+def test_the_caption_names_the_workspace_and_a_scene_only_when_there_is_one() -> None:
+    scene = demo_scene(demo_calibration())
+    assert "orange: workspace (x -800..800, y -800..800, z 20..700)" in caption(scene)
+    assert "grey: scene" not in caption(scene)
+    bin_ = BinConfig("parts", ur_pose_to_matrix([-0.3, 0.2, 0.0, 0, 0, 0]), (300, 200, 150), 10, 10)
+    with_bin = dataclasses.replace(scene, obstacles=tuple(scene_boxes(SceneConfig(bins=(bin_,)))))
+    assert "grey: scene" in caption(with_bin)
+
+
+def test_labels_of_frames_close_together_do_not_cover_each_other() -> None:
+    labels = ["flange, tcp", "camera", "approach, retreat", "object, grasp", "base"]
+    anchors = np.array([[0.10, 0.30], [0.14, 0.29], [0.12, 0.295], [0.13, 0.285], [0.9, 0.5]])
+    places = label_places(anchors, labels)
+    boxes = [(x, y, len(label) * 0.012) for (x, y), label in zip(places, labels, strict=True)]
+    for i, (x1, y1, w1) in enumerate(boxes):
+        for x2, y2, w2 in boxes[i + 1 :]:
+            apart_across = x1 + w1 <= x2 or x2 + w2 <= x1
+            assert apart_across or abs(y1 - y2) >= 0.03 - 1e-12
+    assert places[4] == pytest.approx((0.91, 0.5))  # alone: right beside its frame
+    assert places[0] == pytest.approx((0.11, 0.30))  # the highest of the cluster stays put
