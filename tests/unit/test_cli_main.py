@@ -36,7 +36,7 @@ def test_each_failure_kind_has_its_status_and_one_line(
     status: int,
     first_words: str,
 ) -> None:
-    monkeypatch.setattr(cli, "build_parser", lambda argv: _parser_running(failure))
+    monkeypatch.setattr(cli, "build_parser", lambda argv: ("point", _parser_running(failure)))
     assert cli.main([]) == status
     err = capsys.readouterr().err
     assert err.startswith(first_words)
