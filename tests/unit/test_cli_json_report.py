@@ -91,3 +91,16 @@ def test_a_record_on_disk_is_named_whatever_the_ending(tmp_path: Path) -> None:
         "protective stop",
         audit.pick_id,
     )
+
+
+def test_json_abbreviated_as_argparse_allows_still_prints_the_report(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    argv = ["convert", "--from", "ur", "--to", "ur", "--js", "0.1", "0", "0", "0", "0", "0"]
+    assert cli.main(argv) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert (report["command"], report["status"], report["values"]) == (
+        "convert",
+        "done",
+        [0.1, 0, 0, 0, 0, 0],
+    )

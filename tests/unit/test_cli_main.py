@@ -11,11 +11,15 @@ from handeye_pick.errors import CalibrationError, RobotFault, SafetyRefusal
 
 
 def _parser_running(failure: BaseException) -> argparse.ArgumentParser:
+    """A top-level parser whose one command, ``point`` (without ``--json``), raises
+    ``failure``."""
+
     def run(_args: argparse.Namespace) -> int:
         raise failure
 
     parser = argparse.ArgumentParser()
     parser.set_defaults(run=run, log_file=None, quiet=True)
+    parser.commands = {"point": parser}  # type: ignore[attr-defined]
     return parser
 
 

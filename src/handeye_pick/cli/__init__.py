@@ -138,18 +138,21 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     signal.signal(signal.SIGTERM, _terminate)
     tokens = list(sys.argv[1:] if argv is None else argv)
-    report: JsonReport | None = None
+    report: JsonReport | None = None  # printed when --json was asked of a command that has it
+    json_asked = False
     failure: BaseException | None = None
     try:
         command, parser = build_parser(tokens)
-        from handeye_pick.cli.json_report import JsonReport, has_json_arg
+        from handeye_pick.cli.json_report import JsonReport, asks_json
 
-        # Read from the tokens, not from argparse: a command line it refuses is reported too.
-        if "--json" in tokens and has_json_arg(parser.commands[command]):
-            report = JsonReport(command)
+        report = JsonReport(command)
+        # From the tokens first, so a command line argparse refuses is reported too; then
+        # argparse's own reading.
+        json_asked = asks_json(parser.commands[command], tokens)
         args = parser.parse_args(tokens)
+        json_asked = bool(getattr(args, "json", False))
         configure_logging(args.log_file, quiet=args.quiet)
-        args.report = report if report is not None else JsonReport(command)
+        args.report = report
         status: int = args.run(args)
     except HandEyePickError as exc:
         print(f"error: {exc}", file=sys.stderr)
@@ -171,6 +174,6 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         status, failure = ExitCode.INTERNAL, exc
-    if report is not None:
+    if report is not None and json_asked:
         report.write(status, failure)
     return status

@@ -17,6 +17,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+from collections.abc import Sequence
 from typing import Protocol
 
 from handeye_pick.errors import InputError, PlanRefused, Status, Terminated, ending
@@ -44,6 +45,14 @@ def has_json_arg(command_parser: argparse.ArgumentParser) -> bool:
     """Whether a command's parser has ``--json`` (argparse gives a known option's default,
     False here, and None for a name no option has)."""
     return command_parser.get_default("json") is not None
+
+
+def asks_json(command_parser: argparse.ArgumentParser, tokens: Sequence[str]) -> bool:
+    """Whether a command line asks a command that has ``--json`` for it, read from its tokens
+    before argparse does (which takes ``--js`` for ``--json`` too)."""
+    return has_json_arg(command_parser) and any(
+        len(token) > 3 and "--json".startswith(token) for token in tokens
+    )
 
 
 class JsonReport:
