@@ -31,7 +31,7 @@ import yaml
 from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from here
+sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from the clone
 
 from vision_loop import (  # noqa: E402  (this folder is on the path when the script runs)
     INTRINSICS,

@@ -43,7 +43,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from here
+sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: import it from the clone
 
 from mocks.camera import Intrinsics, Scene, SimulatedCamera, read_zivid_matrix  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402

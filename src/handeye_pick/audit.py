@@ -103,6 +103,9 @@ class AuditLog:
         self._lock: _Lock | None = None
         self.on_append: Callable[[str], None] | None = None
         """Hears each record's JSON line (no newline) once it is on disk; must not raise."""
+        self.records_written = 0
+        """How many records of this ``pick_id`` are on disk (``append`` returned): a report
+        names the pick id only when there is one, never for a record that failed to write."""
 
     def next_pick(self) -> AuditLog:
         """A log for the next pick: same file (and ``open_audit``'s lock and ``on_append``), a
@@ -146,6 +149,7 @@ class AuditLog:
                 f"audit: cannot append to {self.path} ({exc.strerror or exc}); "
                 "refusing to go on without a record"
             ) from None
+        self.records_written += 1
         if self.on_append is not None:
             self.on_append(line)
 

@@ -1,8 +1,8 @@
 """Typed errors of handeye-pick, the statuses an operation ends in, and the one table between.
 
 One root, one subclass per kind of failure. ``ending`` maps each kind to the status an audit
-outcome (and ``pick --json``) records, the status a ``run`` reply carries and the exit status of
-a command, so the class a function raises is part of its contract:
+outcome (and every ``--json`` report) records, the status a ``run`` reply carries and the exit
+status of a command, so the class a function raises is part of its contract:
 
 - ``InputError`` (exit 2): a file, a config key or an argument is wrong; nothing was sent.
 - ``SafetyRefusal`` (exit 3): a pre-flight check refused, or the cell is not ready; nothing moved.
@@ -31,7 +31,7 @@ class Status(str, Enum):
     READY = "ready"
     NOT_READY = "not-ready"
     BYE = "bye"
-    STOPPED = "stopped"  # run's stop request braked the arm; collect: the dataset ended early
+    STOPPED = "stopped"  # run's stop request braked the arm
     BUSY = "busy"  # run: the status of a cell while a request runs
     # an operation that did not
     BAD_INPUT = "bad-input"
@@ -152,7 +152,7 @@ class PlanRefused(SafetyRefusal):
 
 @dataclass(frozen=True)
 class Ending:
-    """How an operation that raised ends: its outcome status (audit record, ``pick --json``),
+    """How an operation that raised ends: its outcome status (audit record, ``--json`` report),
     its reply status (``run``) and the exit status of a command."""
 
     outcome: Status

@@ -240,7 +240,7 @@ def test_sigterm_during_a_capture_kills_it_and_keeps_the_pairs(
             collect.kill()
     assert collect.returncode == 143, err
     report = json.loads(out)
-    assert report["status"] == "stopped"
+    assert report["status"] == "interrupted"
     assert report["pairs"] == [0]
     with pytest.raises(ProcessLookupError):  # the capture program did not outlive the run
         os.kill(hanging, 0)

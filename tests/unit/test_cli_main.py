@@ -11,11 +11,15 @@ from handeye_pick.errors import CalibrationError, RobotFault, SafetyRefusal
 
 
 def _parser_running(failure: BaseException) -> argparse.ArgumentParser:
+    """A top-level parser whose one command, ``point`` (without ``--json``), raises
+    ``failure``."""
+
     def run(_args: argparse.Namespace) -> int:
         raise failure
 
     parser = argparse.ArgumentParser()
     parser.set_defaults(run=run, log_file=None, quiet=True)
+    parser.commands = {"point": parser}  # type: ignore[attr-defined]
     return parser
 
 
@@ -36,7 +40,7 @@ def test_each_failure_kind_has_its_status_and_one_line(
     status: int,
     first_words: str,
 ) -> None:
-    monkeypatch.setattr(cli, "build_parser", lambda argv: _parser_running(failure))
+    monkeypatch.setattr(cli, "build_parser", lambda argv: ("point", _parser_running(failure)))
     assert cli.main([]) == status
     err = capsys.readouterr().err
     assert err.startswith(first_words)

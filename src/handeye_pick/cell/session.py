@@ -158,8 +158,9 @@ class Cell:
 
     @property
     def last_pick_id(self) -> str | None:
-        """The ``pick_id`` of the audit records of the latest operation, whatever its ending
-        (a report of a failed pick carries it)."""
+        """The ``pick_id`` of the audit records of the latest operation (a connect, a pick, a
+        move), whatever its ending, so a report of a failed pick carries it; None when that
+        operation has no record on disk (refused before the audit file, or a failed write)."""
         return self._state.last_pick_id
 
     def watch_steps(self, on_step: Callable[[str], None]) -> None:

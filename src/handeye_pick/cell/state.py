@@ -33,8 +33,8 @@ class CellState:
 
     ``cycle`` counts captures and picks without one; ``place_index`` picks the next place pose
     (they are used in turn); ``holding`` is a part picked and not yet placed; ``fixed_verdicts``
-    the controller's verdicts on configured targets, kept for the session; ``last_pick_id`` the
-    pick id of the latest operation's audit records, whatever its ending.
+    the controller's verdicts on configured targets, kept for the session; ``latest_audit`` the
+    audit log of the latest operation (a connect, a pick, a move), whatever its ending.
     """
 
     config: CellConfig
@@ -49,17 +49,23 @@ class CellState:
     holding: GraspState | None = None
     fixed_verdicts: ControllerVerdicts = field(default_factory=dict)
     captures: CaptureBook = field(default_factory=CaptureBook)
-    last_pick_id: str | None = None
+    latest_audit: AuditLog | None = None
 
     @property
     def host(self) -> str:
         return self.config.robot.host
 
+    @property
+    def last_pick_id(self) -> str | None:
+        """The pick id of the latest operation's audit records, whatever its ending; None when
+        that operation has no record on disk (none yet, or a write that failed)."""
+        audit = self.latest_audit
+        return audit.pick_id if audit is not None and audit.records_written > 0 else None
+
     def next_operation(self) -> AuditLog:
         """The audit log of a new operation (connect, pick, move), now the latest one."""
-        audit = self.link.next_audit()
-        self.last_pick_id = audit.pick_id
-        return audit
+        self.latest_audit = self.link.next_audit()
+        return self.latest_audit
 
     def ensure_not_halted(self) -> None:
         """CellHalted (why, and how to end it) while the cell is halted."""

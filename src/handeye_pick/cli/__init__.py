@@ -26,9 +26,13 @@ import signal
 import sys
 from collections.abc import Collection, Sequence
 from types import FrameType
+from typing import TYPE_CHECKING
 
 from handeye_pick.errors import ExitCode, HandEyePickError, InputError, Terminated, ending
 from handeye_pick.progress import add_output_args, configure_logging
+
+if TYPE_CHECKING:  # loaded once a command is known: the top-level --help loads no cli module
+    from handeye_pick.cli.json_report import JsonReport
 
 COMMANDS: dict[str, tuple[str, str]] = {
     # command: (module in handeye_pick.cli that registers it, summary for the top-level --help)
@@ -77,13 +81,16 @@ log = logging.getLogger("handeye_pick")
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse that reports usage errors with our exit status 2 and one line."""
+    """argparse that reports usage errors with our exit status 2 and one line; the top-level
+    parser keeps each command's own parser in ``commands``."""
+
+    commands: dict[str, argparse.ArgumentParser]
 
     def error(self, message: str) -> None:  # type: ignore[override]
         raise InputError(f"{self.prog}: {message}")
 
 
-def parser_with(modules: Collection[str] = MODULES) -> argparse.ArgumentParser:
+def parser_with(modules: Collection[str] = MODULES) -> _Parser:
     """The parser with the commands of ``modules`` complete (every module by default).
 
     The other commands are listed with their ``COMMANDS`` summary only: their modules are not
@@ -103,17 +110,18 @@ def parser_with(modules: Collection[str] = MODULES) -> argparse.ArgumentParser:
             sub.add_parser(name, help=summary, add_help=False)
     for command_parser in sub.choices.values():  # --quiet/--log-file also after the command
         add_output_args(command_parser, with_defaults=False)
+    parser.commands = dict(sub.choices)
     return parser
 
 
-def build_parser(argv: Sequence[str] | None = None) -> argparse.ArgumentParser:
-    """The parser for the command line ``argv`` (``sys.argv[1:]`` when None).
+def build_parser(argv: Sequence[str]) -> tuple[str, _Parser]:
+    """The command of the command line ``argv`` and its parser.
 
     The command is found by the top-level parser alone; then only that command's module is
     imported. The top-level ``--help`` and a missing or unknown command end in the first step.
     """
-    command = parser_with(()).parse_known_args(argv)[0].command
-    return parser_with({COMMANDS[command][0]})
+    command: str = parser_with(()).parse_known_args(argv)[0].command
+    return command, parser_with({COMMANDS[command][0]})
 
 
 def _terminate(signum: int, frame: FrameType | None) -> None:
@@ -124,24 +132,38 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run one command; return its exit status (never raises for a known failure).
 
     SIGTERM (a supervisor stopping the cell) is handled like Ctrl-C: the command stops the arm
-    and writes its outcome, then exits 143.
+    and writes its outcome, then exits 143. A command line that asks a command with ``--json``
+    for it gets one JSON report on stdout on every ending (``cli.json_report``), a command
+    line argparse refuses included.
     """
     signal.signal(signal.SIGTERM, _terminate)
+    tokens = list(sys.argv[1:] if argv is None else argv)
+    report: JsonReport | None = None  # printed when --json was asked of a command that has it
+    json_asked = False
+    failure: BaseException | None = None
     try:
-        args = build_parser(argv).parse_args(argv)
+        command, parser = build_parser(tokens)
+        from handeye_pick.cli.json_report import JsonReport, asks_json
+
+        report = JsonReport(command)
+        # From the tokens first, so a command line argparse refuses is reported too; then
+        # argparse's own reading.
+        json_asked = asks_json(parser.commands[command], tokens)
+        args = parser.parse_args(tokens)
+        json_asked = bool(getattr(args, "json", False))
         configure_logging(args.log_file, quiet=args.quiet)
+        args.report = report
         status: int = args.run(args)
-        return status
     except HandEyePickError as exc:
         print(f"error: {exc}", file=sys.stderr)
-        return ending(exc).exit_code
+        status, failure = ending(exc).exit_code, exc
     except KeyboardInterrupt as exc:
         terminated = isinstance(exc, Terminated)
         print(
             "terminated (SIGTERM): the arm was stopped" if terminated else "interrupted",
             file=sys.stderr,
         )
-        return ending(exc).exit_code
+        status, failure = ending(exc).exit_code, exc
     except Exception as exc:
         # A bug, not a known failure: a defined status and one line, the traceback in the log
         # (stderr shows it too unless --quiet). Robot code has already stopped the arm.
@@ -151,4 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             "report it with the --log-file output)",
             file=sys.stderr,
         )
-        return ExitCode.INTERNAL
+        status, failure = ExitCode.INTERNAL, exc
+    if report is not None and json_asked:
+        report.write(status, failure)
+    return status

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 from pathlib import Path
 
@@ -16,6 +15,7 @@ from handeye_pick.calibration.report import (
 )
 from handeye_pick.calibration.solver import MIN_PAIRS, MeasurementNoise, solve_hand_eye
 from handeye_pick.cli.common import UNITS
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.errors import InputError
 from handeye_pick.hand_eye.files import HandEyeMode, write_zivid_transform
 
@@ -90,11 +90,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         default=(defaults.robot_translation_mm, defaults.robot_rotation_deg),
         help="one standard deviation of the flange pose the robot reports (default: %(default)s)",
     )
-    parser.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object: transform (m), residuals, suspects, start method, warnings",
-    )
+    add_json_arg(parser, "the transform (m), residuals, suspects, start method, warnings")
     parser.set_defaults(run=run_calibrate)
 
 
@@ -110,8 +106,7 @@ def run_calibrate(args: argparse.Namespace) -> int:
     for warning in result.warnings:
         log.warning("%s", warning)
     if args.json:
-        record = {**result_record(result), "out": str(out), "residuals_file": str(residuals)}
-        print(json.dumps(record))
+        args.report.update(**result_record(result), out=str(out), residuals_file=str(residuals))
     else:
         print(result_table(result))
         print(f"wrote {out} ({TRANSFORM_NAMES[result.mode]}, mm) and {residuals}")

@@ -7,7 +7,6 @@ Robot poses in JSON output are UR pose vectors (m, rad); the detection is in the
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -158,18 +157,6 @@ def plan_fields(plan: PickPlan) -> dict[str, object]:
         "T_base_cam": plan.T_base_cam.tolist(),
         "targets": plan.targets_ur(),
     }
-
-
-def print_json(report: dict[str, object]) -> None:
-    """Print one JSON object on stdout."""
-    print(json.dumps(report, indent=2), flush=True)
-
-
-def add_json_arg(parser: argparse.ArgumentParser) -> None:
-    """``--json``: one JSON object on stdout instead of progress lines."""
-    parser.add_argument(
-        "--json", action="store_true", help="print one JSON object on stdout; no progress lines"
-    )
 
 
 def show(value: object) -> str:

@@ -9,13 +9,15 @@ import sys
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from handeye_pick.cli.cell import add_config_arg, add_json_arg, print_json, progress_from_args
+from handeye_pick.cli.cell import add_config_arg, progress_from_args
 from handeye_pick.cli.common import UNITS
-from handeye_pick.errors import HandEyePickError, InputError, Status
+from handeye_pick.cli.json_report import add_json_arg
+from handeye_pick.errors import HandEyePickError, InputError
 from handeye_pick.hand_eye.files import HandEyeMode
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.calibration.collect import Collection
+    from handeye_pick.cli.json_report import JsonReport
 
 DEFAULT_CAPTURE_TIMEOUT_S = 60.0  # a 3D capture and a board detection take seconds
 
@@ -73,7 +75,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="translation unit of T_cam_obj as the capture writes it; robot poses are written "
         "in the same unit (default: mm, Zivid's)",
     )
-    add_json_arg(collect)
+    add_json_arg(collect, "the dataset, its pairs and the poses skipped, also when it ends early")
     collect.set_defaults(run=run_collect)
 
 
@@ -92,6 +94,7 @@ def run_collect(args: argparse.Namespace) -> int:
     from handeye_pick.cell.session import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
+    args.report.audit_from(cell)
     pose_list = read_pose_list(args.poses)
     check_pose_list_tcp(pose_list, cell.config)
     capture: CaptureStep
@@ -127,16 +130,13 @@ def _report_collection(
     units = "" if args.units == "mm" else f" --units {args.units}"
     next_command = f"handeye-pick calibrate --mode {mode.value}{units} {collection.dataset}"
     if args.json:
-        report: dict[str, object] = {
-            "dataset": str(collection.dataset),
-            "mode": mode.value,
-            "pairs": collection.pairs,
-            "skipped": [{"pose": s.pose, "reason": s.reason} for s in collection.skipped],
-            "status": Status.DONE if error is None else Status.STOPPED,
-        }
-        if error is not None:
-            report["error"] = str(error) or type(error).__name__
-        print_json(report)
+        report: JsonReport = args.report
+        report.update(
+            dataset=str(collection.dataset),
+            mode=mode.value,
+            pairs=collection.pairs,
+            skipped=[{"pose": s.pose, "reason": s.reason} for s in collection.skipped],
+        )
         return
     pairs = ", ".join(str(n) for n in collection.pairs) or "none"
     lines = [f"collected {len(collection.pairs)} pairs in {collection.dataset} (N: {pairs})"]

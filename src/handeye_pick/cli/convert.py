@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -12,6 +10,7 @@ from numpy.typing import NDArray
 from handeye_pick.cli.common import (
     accept_negative_exponents,
 )
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
     AngleUnit,
@@ -51,7 +50,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "about fixed axes), upper case intrinsic (ZYX)",
     )
     convert.add_argument("--angle-unit", choices=("deg", "rad"), help="Euler angle unit")
-    convert.add_argument("--json", action="store_true", help="print one JSON object")
+    add_json_arg(convert, "format and values (and the Euler sequence and angle unit)")
     convert.add_argument("values", nargs="+", type=float, metavar="NUMBER", help="the pose")
     accept_negative_exponents(convert)
     convert.set_defaults(run=run_convert)
@@ -77,10 +76,9 @@ def run_convert(args: argparse.Namespace) -> int:
     T = _to_matrix(args.source, np.array(args.values), args.sequence, args.angle_unit)
     values = _from_matrix(args.target, T, args.sequence, args.angle_unit)
     if args.json:
-        report: dict[str, Any] = {"format": args.target, "values": values.tolist()}
+        args.report.update(format=args.target, values=values.tolist())
         if args.target == "euler":
-            report.update(sequence=args.sequence, angle_unit=args.angle_unit)
-        print(json.dumps(report))
+            args.report.update(sequence=args.sequence, angle_unit=args.angle_unit)
     elif args.target == "matrix":
         for row in values:
             print(" ".join(f"{v: .12g}" for v in row))

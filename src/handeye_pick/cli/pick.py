@@ -2,9 +2,9 @@
 
 Inputs are read and validated before the robot is contacted (bad input: exit 2, nothing sent).
 Then: connect, check the cell, plan, pre-flight (exit 3, nothing moved), audit, move (exit 4 on a
-robot fault, 130 on Ctrl-C and 143 on SIGTERM after stopL). ``--json`` prints one JSON object on
-stdout whatever the ending: the plan (UR pose vectors, m and rad) as far as it got, the status
-and the error.
+robot fault, 130 on Ctrl-C and 143 on SIGTERM after stopL). ``--json`` prints one JSON report on
+stdout whatever the ending (``cli.json_report``): the plan (UR pose vectors, m and rad) as far as
+it got, the status, the pick id of its audit records and the error.
 """
 
 from __future__ import annotations
@@ -22,17 +22,18 @@ from handeye_pick.cli.cell import (
     capture_pose_from_args,
     detection_from_args,
     plan_fields,
-    print_json,
     progress_from_args,
     publisher_from_args,
 )
 from handeye_pick.cli.common import add_camera_point_args
-from handeye_pick.errors import ExitCode, HandEyePickError, Status, ending
+from handeye_pick.cli.json_report import add_json_arg
+from handeye_pick.errors import ExitCode, Status
 from handeye_pick.geometry import Transform, matrix_to_ur_pose, ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.cell.pick import PickResult
     from handeye_pick.cell.plan import StepError
+    from handeye_pick.cli.json_report import JsonReport
 
 
 def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -60,86 +61,56 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         action="store_true",
         help="connect, read, compute and check, append the plan to the audit file; move nothing",
     )
-    parser.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object (plan, targets, status) on stdout; no progress lines",
-    )
+    add_json_arg(parser, "the plan, targets, checks, reached poses and place")
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Exit 0 when the pick (or dry run) is done; typed errors propagate to the dispatcher,
-    after the JSON report is printed."""
+    """Exit 0 when the pick (or dry run) is done, 5 when it missed; typed errors propagate to
+    the dispatcher, which ends the JSON report."""
     from handeye_pick.cell.session import Cell
     from handeye_pick.config.load import load_config
 
-    report: dict[str, object] = {"status": "starting"}
-    try:
-        config = load_config(args.config)
-        report.update(
-            config=str(config.path), host=config.robot.host, audit_file=str(config.audit.file)
-        )
-        detection = detection_from_args(args)
-        given = capture_pose_from_args(args, detection)
-        with contextlib.ExitStack() as stack:
-            publisher = publisher_from_args(args, config)
-            if publisher is not None:  # closed after the cell: its last records are recorded
-                stack.enter_context(publisher)
-            cell = Cell(config, progress=progress_from_args(args), observer=publisher)
-            capture = cell.given_capture(*given) if given is not None else None
-            with cell:
-                if args.cloud is not None:
-                    cell.note_cloud(args.cloud, capture)
-                result = cell.pick(
-                    detection,
-                    capture,
-                    dry_run=args.dry_run,
-                    on_plan=lambda plan: report.update(plan_fields(plan)),
-                )
-    except (HandEyePickError, KeyboardInterrupt) as exc:
-        report.update(_failure_fields(exc))
-        if args.json:
-            print_json(report)
-        raise
-    report.update(plan_fields(result.plan))  # a grasp alternative has targets of its own
+    report: JsonReport = args.report
+    config = load_config(args.config)
+    report.update(
+        config=str(config.path), host=config.robot.host, audit_file=str(config.audit.file)
+    )
+    detection = detection_from_args(args)
+    given = capture_pose_from_args(args, detection)
+    with contextlib.ExitStack() as stack:
+        publisher = publisher_from_args(args, config)
+        if publisher is not None:  # closed after the cell: its last records are recorded
+            stack.enter_context(publisher)
+        cell = Cell(config, progress=progress_from_args(args), observer=publisher)
+        report.audit_from(cell)
+        capture = cell.given_capture(*given) if given is not None else None
+        with cell:
+            if args.cloud is not None:
+                cell.note_cloud(args.cloud, capture)
+            result = cell.pick(
+                detection,
+                capture,
+                dry_run=args.dry_run,
+                on_plan=lambda plan: report.update(**plan_fields(plan)),
+            )
+    report.update(**plan_fields(result.plan))  # a grasp alternative has targets of its own
     report.update(
         status=result.status,
-        pick_id=result.pick_id,
         flange_pose_source=result.capture.source,
         checks=[asdict(check) for check in result.checks],
         reached={name: ur_pose_list(T) for name, T in result.reached.items()},
         errors={name: asdict(error) for name, error in result.errors.items()},
     )
     if result.alternative is not None:
-        report["alternative"] = result.alternative
+        report.update(alternative=result.alternative)
     if result.T_base_tcp_place is not None:
-        report["place"] = {
-            "index": result.place_index,
-            "pose": ur_pose_list(result.T_base_tcp_place),
-        }
-    if args.json:
-        print_json(report)
-    else:
+        report.update(
+            place={"index": result.place_index, "pose": ur_pose_list(result.T_base_tcp_place)}
+        )
+    if not args.json:
         _print_summary(result, str(config.audit.file))
     return ExitCode.MISSED if result.status is Status.MISSED else ExitCode.OK
-
-
-def _failure_fields(exc: BaseException) -> dict[str, object]:
-    """The report's ``status`` (the pick's outcome status, ``errors.ending``) and ``error``."""
-    from handeye_pick.safety import PreflightRefusal
-
-    status = ending(exc).outcome
-    if isinstance(exc, KeyboardInterrupt):
-        return {"status": status, "error": f"interrupted ({type(exc).__name__}): stopL sent"}
-    fields: dict[str, object] = {
-        "error": str(exc),
-        "error_type": type(exc).__name__,
-        "status": status,
-    }
-    if isinstance(exc, PreflightRefusal):
-        fields["checks"] = [asdict(check) for check in exc.results]
-    return fields
 
 
 def _print_summary(result: PickResult, audit_file: str) -> None:

@@ -13,10 +13,8 @@ from typing import TYPE_CHECKING
 from handeye_pick.cli.cell import (
     add_config_arg,
     add_detection_arg,
-    add_json_arg,
     detection_from_args,
     plan_fields,
-    print_json,
     progress_from_args,
     show,
 )
@@ -25,6 +23,7 @@ from handeye_pick.cli.common import (
     add_robot_pose_args,
     robot_pose_from_args,
 )
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -48,7 +47,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     plan.add_argument(
         "--plot", required=True, type=Path, metavar="FILE.png", help="PNG file to write"
     )
-    add_json_arg(plan)
+    add_json_arg(plan, "the plan, targets and any outside the workspace")
     plan.set_defaults(run=run_plan)
 
 
@@ -91,13 +90,11 @@ def run_plan(args: argparse.Namespace) -> int:
     render_scene(scene, args.plot)
     outside = cell.outside_workspace(plan)
     if args.json:
-        print_json(
-            {
-                "plot": str(args.plot),
-                "flange_source": flange_source,
-                **plan_fields(plan),
-                "outside_workspace": outside,
-            }
+        args.report.update(
+            plot=str(args.plot),
+            flange_source=flange_source,
+            **plan_fields(plan),
+            outside_workspace=outside,
         )
     else:
         lines = [f"plan drawn to {args.plot} (flange from {flange_source}; nothing moved)"]

@@ -4,8 +4,6 @@
 from __future__ import annotations
 
 import argparse
-import json
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -18,6 +16,7 @@ from handeye_pick.cli.common import (
     camera_point_mm_from_args,
     refuse_implausible_chain,
 )
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.detection import detection_from_point_mm
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
@@ -39,11 +38,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     add_hand_eye_args(point)
     add_robot_pose_args(point)
     add_camera_point_args(point)
-    point.add_argument(
-        "--json",
-        action="store_true",
-        help="print one JSON object (point_camera_mm, point_base_mm, T_base_cam_m, ...)",
-    )
+    add_json_arg(point, "point_camera_mm, point_base_mm, T_base_cam_m, the calibration")
     point.set_defaults(run=run_point)
 
 
@@ -60,22 +55,19 @@ def run_point(args: argparse.Namespace) -> int:
     p_base_mm = transform_point(chain.T_base_cam, p_cam_mm * 1e-3) * 1e3
     calibration = chain.calibration
     if args.json:
-        report: dict[str, Any] = {
-            "mode": calibration.mode.value,
-            "calibration": {
+        args.report.update(
+            mode=calibration.mode.value,
+            calibration={
                 "path": str(calibration.path),
                 "sha256": calibration.sha256,
                 "units": calibration.units,
                 "inverted": calibration.inverted,
             },
-            "point_camera_mm": p_cam_mm.tolist(),
-            "point_base_mm": p_base_mm.tolist(),
-            "T_base_cam_m": chain.T_base_cam.tolist(),
-            "T_base_flange_m": None
-            if chain.T_base_flange is None
-            else chain.T_base_flange.tolist(),
-        }
-        print(json.dumps(report))
+            point_camera_mm=p_cam_mm.tolist(),
+            point_base_mm=p_base_mm.tolist(),
+            T_base_cam_m=chain.T_base_cam.tolist(),
+            T_base_flange_m=None if chain.T_base_flange is None else chain.T_base_flange.tolist(),
+        )
     else:
         print(f"point_camera_mm: {_numbers(p_cam_mm)}")
         print(f"point_base_mm:   {_numbers(p_base_mm)}")

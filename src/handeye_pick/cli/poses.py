@@ -18,8 +18,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.cli.cell import add_config_arg, add_json_arg, print_json, progress_from_args
+from handeye_pick.cli.cell import add_config_arg, progress_from_args
 from handeye_pick.cli.common import accept_negative_exponents
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.errors import InputError, SafetyRefusal
 from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list, ur_pose_to_matrix
 from handeye_pick.hand_eye.files import HandEyeMode
@@ -88,7 +89,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="eye-to-hand (required): the board's rough mount on the flange T_flange_obj, UR "
         "vector (m, rad); board frame: origin at its centre, z into the board",
     )
-    add_json_arg(poses)
+    add_json_arg(poses, "the pose list written and the TCP poses (UR vectors, m and rad)")
     poses.set_defaults(run=run_poses)
 
 
@@ -98,6 +99,7 @@ def run_poses(args: argparse.Namespace) -> int:
     from handeye_pick.cell.session import Cell
 
     cell = Cell(args.config, progress=progress_from_args(args))
+    args.report.audit_from(cell)  # a failed connect is audited
     mode = cell.calibration.mode
     _check_mode_flags(args, mode)
     look_at_m = np.array(args.look_at, dtype=np.float64) / 1000.0
@@ -125,13 +127,11 @@ def run_poses(args: argparse.Namespace) -> int:
     )
     separation_deg = _smallest_separation_deg(flanges)
     if args.json:
-        print_json(
-            {
-                "out": str(args.out),
-                "mode": mode.value,
-                "poses": [ur_pose_list(T) for T in targets],
-                "smallest_separation_deg": separation_deg,
-            }
+        args.report.update(
+            out=str(args.out),
+            mode=mode.value,
+            poses=[ur_pose_list(T) for T in targets],
+            smallest_separation_deg=separation_deg,
         )
         return 0
     lines = [f"{len(targets)} poses ({mode.value}, {aim}), TCP as UR vectors (m, rad):"]

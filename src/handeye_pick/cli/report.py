@@ -11,6 +11,7 @@ import sys
 from datetime import datetime
 from pathlib import Path
 
+from handeye_pick.cli.json_report import add_json_arg
 from handeye_pick.errors import ExitCode, InputError
 
 
@@ -33,16 +34,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
             help=f"{what} time reported, ISO 8601 (2026-12-02T06:00, local time without an offset)",
         )
     report.add_argument("--plot", type=Path, metavar="FILE.png", help="also draw the shift")
-    report.add_argument(
-        "--json", action="store_true", help="print the report as one JSON object on stdout"
-    )
+    add_json_arg(report, "the shift's figures as the text shows them")
     report.set_defaults(run=run_report)
 
 
 def run_report(args: argparse.Namespace) -> int:
     """Print the report (and draw it with ``--plot``); exit 0."""
-    import json
-
     from handeye_pick.report.output import report_json, report_text, skipped_warning
     from handeye_pick.report.shift import shift_report
 
@@ -60,7 +57,7 @@ def run_report(args: argparse.Namespace) -> int:
 
         render_report(report, args.plot)
     if args.json:
-        print(json.dumps(report_json(report), indent=2), flush=True)
+        args.report.update(**report_json(report))
     else:
         print(report_text(report), flush=True)
         if args.plot is not None:

@@ -9,14 +9,9 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING
 
-from handeye_pick.cli.cell import (
-    add_config_arg,
-    add_json_arg,
-    print_json,
-    progress_from_args,
-    show,
-)
-from handeye_pick.errors import ExitCode
+from handeye_pick.cli.cell import add_config_arg, progress_from_args, show
+from handeye_pick.cli.json_report import add_json_arg
+from handeye_pick.errors import ExitCode, Status
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
@@ -36,7 +31,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "workspace box holds the current TCP.",
     )
     add_config_arg(status)
-    add_json_arg(status)
+    add_json_arg(status, "every reading, ready and the problems")
     status.set_defaults(run=run_status)
 
 
@@ -56,7 +51,10 @@ def run_status(args: argparse.Namespace) -> int:
         report["scene"] = describe_scene(config.scene, len(config.tool_shape))
     state = cell.inspect()
     report.update(_status_fields(cell, state))
-    _print_status(report, state.problems, args.json)
+    if args.json:
+        args.report.update(status=Status.READY if state.ready else Status.NOT_READY, **report)
+    else:
+        _print_status(report, state.problems)
     return ExitCode.OK if state.ready else ExitCode.REFUSED
 
 
@@ -99,10 +97,7 @@ def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
     return fields
 
 
-def _print_status(report: dict[str, object], problems: list[str], as_json: bool) -> None:
-    if as_json:
-        print_json(report)
-        return
+def _print_status(report: dict[str, object], problems: list[str]) -> None:
     lines = [f"cell {report['host']} ({report['config']})"]
     labels = (
         ("controller_version", "controller"),

@@ -12,22 +12,18 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING
 
-from handeye_pick.cli.cell import (
-    add_config_arg,
-    add_json_arg,
-    plan_fields,
-    print_json,
-    progress_from_args,
-)
+from handeye_pick.cli.cell import add_config_arg, plan_fields, progress_from_args
 from handeye_pick.cli.common import (
     add_camera_point_args,
     camera_point_mm_from_args,
 )
-from handeye_pick.errors import HandEyePickError, InputError, Status, ending
+from handeye_pick.cli.json_report import add_json_arg
+from handeye_pick.errors import InputError
 from handeye_pick.geometry import ur_pose_list
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.cell.plan import PickPlan
+    from handeye_pick.cli.json_report import JsonReport
     from handeye_pick.config.schema import CellConfig
     from handeye_pick.detection import Detection
 
@@ -60,7 +56,7 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         action="store_true",
         help="wait for Enter at the approach point before descending",
     )
-    add_json_arg(touch)
+    add_json_arg(touch, "the plan, the touch point in base (mm), the reached poses")
     touch.set_defaults(run=run_touch_test)
 
 
@@ -68,15 +64,16 @@ def run_touch_test(args: argparse.Namespace) -> int:
     """Approach, descend slowly to the stand-off, go back up; exit 0 when done."""
     from handeye_pick.cell.session import Cell
 
+    report: JsonReport = args.report
     cell = Cell(args.config, progress=progress_from_args(args))
+    report.audit_from(cell)
     detection, standoff_mm = _touch_point(args, cell.config)
-    report: dict[str, object] = {"standoff_mm": standoff_mm}
+    report.update(standoff_mm=standoff_mm)
 
     def show_plan(plan: PickPlan) -> None:
-        report.update(plan_fields(plan))
         point = plan.T_base_obj[:3, 3] * 1000.0
         standoff = plan.grasp[:3, 3] * 1000.0
-        report["point_base_mm"] = point.tolist()
+        report.update(**plan_fields(plan), point_base_mm=point.tolist())
         if not args.json:
             print(
                 f"touch point in base: [{point[0]:.1f}, {point[1]:.1f}, {point[2]:.1f}] mm; "
@@ -86,28 +83,16 @@ def run_touch_test(args: argparse.Namespace) -> int:
             )
 
     confirm = _confirmation(standoff_mm) if args.confirm else None
-    try:
-        with cell:
-            result = cell.touch_test(
-                detection, standoff_mm / 1000.0, before_move=confirm, on_plan=show_plan
-            )
-    except (HandEyePickError, KeyboardInterrupt) as exc:
-        if args.json:  # the operator's record even when it ends early; the dispatcher reports
-            report.update(
-                status=ending(exc).outcome,
-                error=str(exc) or type(exc).__name__,
-                pick_id=cell.last_pick_id,
-            )
-            print_json(report)
-        raise
-    report["pick_id"] = result.pick_id
-    report["reached"] = {name: ur_pose_list(T) for name, T in result.reached.items()}
+    with cell:
+        result = cell.touch_test(
+            detection, standoff_mm / 1000.0, before_move=confirm, on_plan=show_plan
+        )
     standoff_error_mm = result.errors["grasp"].position_mm
-    if args.json:
-        report["status"] = Status.DONE
-        report["standoff_error_mm"] = standoff_error_mm
-        print_json(report)
-    else:
+    report.update(
+        reached={name: ur_pose_list(T) for name, T in result.reached.items()},
+        standoff_error_mm=standoff_error_mm,
+    )
+    if not args.json:
         print(
             f"touch-test done: stand-off reached within {standoff_error_mm:.2f} mm, "
             f"back at the retreat point; audit records {result.pick_id} in "

@@ -3,7 +3,7 @@ to a Foxglove context, which writes MCAP files (``recorder.McapFiles``) and feed
 (``live.start_live``).
 
 Channels (docs/recording.md): ``/tf`` (``base -> flange`` from the RTDE samples the cell reads,
-at most every ``MOVING_PERIOD_S`` of controller time while the arm moves; ``flange -> tcp``;
+one per ``MOVING_PERIOD_S`` slot of controller time while the arm moves; ``flange -> tcp``;
 the camera; ``capture_flange`` and ``capture_cam``), ``/cell/candidates``, ``/cell/plan``,
 ``/cell/reached``, ``/cell/scene``, ``/cell/status`` and ``/cell/audit`` (JSON), and
 ``/camera/points``. A timer thread, once a second, writes again what holds until it changes
@@ -49,8 +49,9 @@ from handeye_pick.steps import Step
 log = logging.getLogger(__name__)
 
 MOVING_PERIOD_S = 0.01
-"""``base -> flange`` is logged at most this often (controller time) while the arm moves:
-100 Hz, of the 250 looks a second the cell takes at a moving arm."""
+"""``base -> flange`` is logged once in each slot this long (controller time, s) while the arm
+moves: 100 Hz, from the 250 looks a second the cell takes at a moving arm (a slot without a
+look has no frame)."""
 REST_PERIOD_S = 1.0
 """At rest (the pose unchanged, or no sample read) it is logged once a second."""
 MOVED_M = 1e-6
@@ -130,7 +131,10 @@ class Publisher:
         last = self._flange
         if last is not None:
             since = controller_time_s - last[1]
-            if 0.0 <= since < MOVING_PERIOD_S:
+            # One frame per slot of MOVING_PERIOD_S of controller time, not one per period
+            # since the last frame: the cell looks every few ms, so "a period since the last"
+            # waits for the look after the period and lost a slot in three (65-72 Hz).
+            if since >= 0.0 and _slot(controller_time_s) == _slot(last[1]):
                 return
             if since < REST_PERIOD_S and _same(last[0], tcp_pose):
                 return
@@ -327,6 +331,11 @@ def thinned_cloud_mm(path: Path, max_points: int) -> np.ndarray:
             start += len(xyz)
     points = np.concatenate(kept) if kept else np.empty((0, 3), dtype=np.float32)
     return points[:max_points]
+
+
+def _slot(controller_time_s: float) -> int:
+    """The ``MOVING_PERIOD_S`` slot of controller time (s) a sample falls in."""
+    return math.floor(controller_time_s / MOVING_PERIOD_S)
 
 
 def _same(pose_a: Sequence[float], pose_b: Sequence[float]) -> bool:
