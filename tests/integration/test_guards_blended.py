@@ -15,12 +15,14 @@ from __future__ import annotations
 import json
 import os
 import signal
+import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pytest
+import rtde_control
 
 from handeye_pick import Cell, RobotConnectionError, load_detection
 from handeye_pick.cell.blend import BLEND_SHARE, MIN_BLEND_M
@@ -347,3 +349,34 @@ def test_the_first_corner_takes_no_more_than_its_share_of_the_room_left(
     np.testing.assert_allclose(
         ur_pose_to_matrix(first["waypoints"][0])[:3, 3], approach[:3, 3], atol=1e-5
     )
+
+
+def test_the_simulator_drops_the_watchdog_with_a_path_upload_until_it_is_set_again(
+    sim_controller: SimFactory,
+) -> None:
+    """What the test above relies on, seen from ur_rtde itself (no handeye_pick): a watchdog
+    armed before ``moveL(path)`` does not survive the path's upload, so a client silent for
+    three windows leaves the path running to its end; armed again on the new program, the
+    same silence stops it."""
+    ctl = sim_controller(tcp_offset=TCP_OFFSET)  # real-time motion
+    control = rtde_control.RTDEControlInterface(ctl.host)
+    try:
+        assert control.setWatchdog(10.0)  # a 0.1 s window
+        start = list(ctl.snapshot().tcp_pose)
+        path = []
+        for dx, dy in ((0.1, 0.0), (0.1, 0.1)):
+            pose = [start[0] + dx, start[1] + dy, *start[2:]]
+            path.append([*pose, 0.25, 1.2, 0.02 if not path else 0.0])
+        assert control.moveL(path, True)  # about 1 s of motion; then the client is silent
+        time.sleep(0.3)
+        assert ctl.snapshot().program_running
+        assert wait_until(lambda: len(ctl.motions) == 1)
+        assert ctl.motions[0]["end"] == "reached"
+        back = [[*start, 0.25, 1.2, 0.0]]
+        assert control.moveL(back, True)  # a new upload; this time armed again
+        assert control.setWatchdog(10.0)
+        assert wait_until(lambda: not ctl.snapshot().program_running)
+        assert wait_until(lambda: len(ctl.motions) == 2)
+        assert ctl.motions[1]["end"].startswith("program stopped: RTDE watchdog")
+    finally:
+        control.disconnect()
