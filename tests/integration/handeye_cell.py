@@ -10,9 +10,12 @@ flange, face away from the tool (``BOARD_ON_FLANGE``, T_flange_board). All UR ve
 
 from __future__ import annotations
 
+import os
 import shlex
 import subprocess
 import sys
+import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -100,3 +103,37 @@ def cli(*args: str, timeout_s: float = 120.0) -> subprocess.CompletedProcess[str
         timeout=timeout_s,
         check=False,
     )
+
+
+def ur_rtde_child_pid(host: str) -> int:
+    """The process id of this process's ur_rtde child (robot/ur/worker.py) connected to
+    ``host``, found in /proc as the operator's tools would find it; a test freezes or kills it
+    to make the client fall silent."""
+    me = os.getpid()
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit():
+            continue
+        try:
+            stat = (entry / "stat").read_text()
+            argv = (entry / "cmdline").read_bytes().split(b"\0")
+        except OSError:  # gone meanwhile
+            continue
+        parent = int(stat.rpartition(")")[2].split()[1])
+        words = [a.decode(errors="replace") for a in argv]
+        if parent == me and any(w.endswith("worker.py") for w in words) and host in words:
+            found.append(int(entry.name))
+    if len(found) != 1:
+        raise RuntimeError(f"expected one ur_rtde child for {host}, found {found}")
+    return found[0]
+
+
+def wait_until(condition: Callable[[], bool], within_s: float = 10.0) -> bool:
+    """Poll ``condition`` every 5 ms until it holds (True) or ``within_s`` ran out (False): a
+    bound on waiting for the simulator, never a timing assertion."""
+    deadline = time.monotonic() + within_s
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.005)
+    return True
