@@ -115,8 +115,8 @@ def dashboard_lost_error(host: str, operation: str, exc: OSError) -> RobotConnec
     and ended."""
     return RobotConnectionError(
         f"{operation} on {host}: the dashboard server (port {DASHBOARD_PORT}) stopped answering "
-        f"({exc or type(exc).__name__}); the arm was stopped and the session is over: check the "
-        "controller, then start a new session"
+        f"({exc or type(exc).__name__}): the session is over (the arm stopped through RTDE and "
+        "the watchdog); check the controller and the network, then start a new session"
     )
 
 

@@ -475,7 +475,6 @@ class URRtdeArm:
             return self._dashboard.in_remote_control(self._version)
         except OSError as exc:
             error = dashboard_lost_error(self.host, "remote control", exc)
-        log.error("%s", error)
         self.stop_linear(self._stop_decel_mps2)
         self._child.end(str(error))
         self._dashboard.close()

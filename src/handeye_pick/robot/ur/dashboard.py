@@ -80,9 +80,16 @@ class Dashboard:
             self._answer(command)
             self._unanswered -= 1
         self._unanswered += 1
+        started = time.perf_counter()
         self._sock.sendall(command.encode("ascii") + b"\n")
         answer = self._answer(command)
         self._unanswered -= 1
+        log.debug(
+            "dashboard %r -> %.60r in %.2f ms",
+            command,
+            answer,
+            (time.perf_counter() - started) * 1000.0,
+        )
         return answer
 
     def _answer(self, command: str) -> str:
