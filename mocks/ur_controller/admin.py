@@ -3,7 +3,8 @@
 One JSON object per line each way, on TCP port ADMIN_PORT of the controller's own loopback
 address (the controller never opens it on any other address). Requests:
 `{"op": "inject", "spec": "protective-stop"}`, `{"op": "snapshot"}`, `{"op": "commands"}`,
-`{"op": "motions"}`, `{"op": "set_remote_control", "enabled": false}`,
+`{"op": "motions"}`, `{"op": "dashboard"}` (every dashboard connection and its requests),
+`{"op": "set_remote_control", "enabled": false}`,
 `{"op": "set_part", "width_mm": 40.0}` (null: no part). Replies:
 `{"ok": true, "result": ...}` or `{"ok": false, "error": "one line"}`. SimulatedController sends
 the same requests on the child's stdin.
@@ -32,6 +33,10 @@ class AdminBackend(Protocol):
     @property
     def motions(self) -> list[dict[str, Any]]:
         """A copy of the motion record."""
+
+    @property
+    def dashboard_connections(self) -> list[dict[str, Any]]:
+        """A copy of the dashboard's connection record (dashboard.py)."""
 
     def snapshot(self) -> ControllerSnapshot:
         """The controller's state now."""
@@ -64,6 +69,8 @@ def _result(ctl: AdminBackend, request: Any) -> Any:
         return ctl.commands
     if op == "motions":
         return ctl.motions
+    if op == "dashboard":
+        return ctl.dashboard_connections
     if op == "inject":
         ctl.inject(str(request["spec"]))
         return None

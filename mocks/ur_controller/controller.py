@@ -116,6 +116,8 @@ class Controller:
         self._stopping = threading.Event()
         self._loop: threading.Thread | None = None
         self._rtde = RtdeServer(options.host, self, self.profile)
+        self._dashboard = (DashboardServer(options.host, self, self.profile, self.model_name)
+                           if self.profile.dashboard else None)
         self._listeners = self._servers(options.host)
         with self.lock:
             self._publish()
@@ -123,8 +125,8 @@ class Controller:
     def _servers(self, host: str) -> tuple[Listener, ...]:
         """Every port's listener: the profile's, the Robotiq socket, the admin channel."""
         listeners: list[Listener] = [self._rtde.listener]
-        if self.profile.dashboard:
-            listeners.append(DashboardServer(host, self, self.profile, self.model_name).listener)
+        if self._dashboard is not None:
+            listeners.append(self._dashboard.listener)
         if self.profile.script_port:
             listeners.append(ScriptPort(host, self.run_program).listener)
         listeners.append(RobotiqServer(host, self.gripper_request).listener)
@@ -185,6 +187,11 @@ class Controller:
     def motions(self) -> list[dict[str, Any]]:
         """A copy of the motion record: one dict per motion once it has ended, in order."""
         return self._motions.entries()
+
+    @property
+    def dashboard_connections(self) -> list[dict[str, Any]]:
+        """A copy of the dashboard's connection record (dashboard.py); empty without one."""
+        return [] if self._dashboard is None else self._dashboard.connections()
 
     def inject(self, spec: str) -> None:
         """Inject a fault, `FAULT@WHEN` (`@now` implied); see faults.py for the names."""
@@ -389,6 +396,8 @@ class Controller:
             self.stop_program("stopped from the pendant")
         elif fault.name == "remote-control-off":
             self._remote_control = False
+        elif fault.name == "dashboard-down" and self._dashboard is not None:
+            self._dashboard.go_away()
         elif fault.name == "refuse-start":
             self._refuse_next_start = True
         elif fault.name == "refuse-move":

@@ -5,12 +5,16 @@ Commands and reply texts follow UR's dashboard server as UR's own client library
 with its reply pattern and the first CB3 and e-Series versions that have it), checked against
 what ur_rtde 1.6.5 parses (docs/ur-rtde.md, "Dashboard server"). A command the controller's version
 does not have is answered like an unknown one: `Could not understand: '<request>'`.
+
+Every connection and its request lines are recorded, so a test can see who asked what on which
+connection (admin request `dashboard`); fault `dashboard-down` makes the server go away.
 """
 
 from __future__ import annotations
 
 import socket
-from typing import Protocol
+import threading
+from typing import Any, Protocol
 
 from mocks.ur_controller.net import Listener
 from mocks.ur_controller.profiles import Profile
@@ -111,9 +115,38 @@ class DashboardServer:
         self._loaded_program = ""
         self._user_role = "PROGRAMMER"
         self._operational_mode = "NONE"
+        self._record_lock = threading.Lock()
+        self._connections: list[dict[str, Any]] = []
+        self._gone = False
         self.listener = Listener(host, DASHBOARD_PORT, "dashboard", self._serve)
 
+    def connections(self) -> list[dict[str, Any]]:
+        """A copy of the connection record, in the order accepted: `{"connection": N,
+        "requests": [request lines in order], "open": bool}`."""
+        with self._record_lock:
+            return [{**c, "requests": list(c["requests"])} for c in self._connections]
+
+    def go_away(self) -> None:
+        """The server goes away (fault `dashboard-down`): every connection is closed, and a new
+        one is closed before the banner, for good."""
+        with self._record_lock:
+            self._gone = True
+        self.listener.drop_clients()
+
     def _serve(self, sock: socket.socket) -> None:
+        with self._record_lock:
+            if self._gone:
+                return
+            connection: dict[str, Any] = {
+                "connection": len(self._connections) + 1, "requests": [], "open": True}
+            self._connections.append(connection)
+        try:
+            self._converse(sock, connection["requests"])
+        finally:
+            with self._record_lock:
+                connection["open"] = False
+
+    def _converse(self, sock: socket.socket, requests: list[str]) -> None:
         sock.sendall((BANNER + "\n").encode())
         buffer = b""
         while True:
@@ -124,6 +157,8 @@ class DashboardServer:
             while b"\n" in buffer:
                 raw, buffer = buffer.split(b"\n", 1)
                 request = raw.decode("utf-8", errors="replace").strip()
+                with self._record_lock:
+                    requests.append(request)
                 sock.sendall((self.answer(request) + "\n").encode())
                 if request == "quit":
                     return

@@ -1,8 +1,8 @@
 """Fault specs: `FAULT@WHEN` as `--inject` and `SimulatedController.inject` take them.
 
 FAULT is one of protective-stop, emergency-stop, safeguard-stop, drop-connection, stall:SECONDS,
-stop-program, remote-control-off, refuse-start, refuse-move, slow:SECONDS, jitter:SECONDS (the
-measured joints shake, arm.py's `Arm.jitter`), and for the simulated
+stop-program, remote-control-off, dashboard-down, refuse-start, refuse-move, slow:SECONDS,
+jitter:SECONDS (the measured joints shake, arm.py's `Arm.jitter`), and for the simulated
 Robotiq gripper gripper-fault:CODE (FLT 1..255), gripper-silent, gripper-drop. WHEN is `now`
 (the default when `@WHEN` is left out) or `move:K:FRACTION`: during the K-th motion command
 (counted from 1), once FRACTION (0..1) of that motion's duration has elapsed.
@@ -19,6 +19,7 @@ PLAIN_FAULTS = (
     "drop-connection",
     "stop-program",
     "remote-control-off",
+    "dashboard-down",
     "refuse-start",
     "refuse-move",
     "gripper-silent",

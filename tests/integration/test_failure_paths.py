@@ -5,8 +5,10 @@ nothing is ever unlocked or re-sent by itself.
 
 from __future__ import annotations
 
+import contextlib
 import socket
 import subprocess
+import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -58,11 +60,31 @@ def test_an_unexpected_error_during_a_move_stops_the_arm(sim_controller: SimFact
 
 def test_a_controller_silent_at_connect_is_a_bounded_connection_error(loopback_host: str) -> None:
     # Port 30004 accepts but never answers (a hung controller, a wrong device): ur_rtde would
-    # wait for the RTDE handshake forever; the connection must end with a typed error.
-    with socket.create_server((loopback_host, 30004)) as server:
+    # wait for the RTDE handshake forever; the connection must end with a typed error. The
+    # dashboard, asked first, answers as a 5.15 controller in Remote Control would.
+    with (
+        socket.create_server((loopback_host, 30004)) as server,
+        socket.create_server((loopback_host, 29999)) as dashboard,
+    ):
         server.settimeout(5.0)
+        threading.Thread(target=_serve_dashboard, args=(dashboard,), daemon=True).start()
         with pytest.raises(RobotConnectionError, match="no answer to connect"):
             URRtdeArm(loopback_host, watchdog_s=TEST_WATCHDOG_S, connect_timeout_s=2.0)
+
+
+def _serve_dashboard(server: socket.socket) -> None:
+    """Answer one dashboard connection: a banner, then PolyScope 5.15 in Remote Control."""
+    answers = {
+        "PolyscopeVersion": "URSoftware 5.15.0.1234 (Jul 12 2023)",
+        "is in remote control": "true",
+    }
+    with contextlib.suppress(OSError):  # the test closed the port: nothing more to serve
+        conn, _ = server.accept()
+        with conn, conn.makefile("r") as lines:
+            conn.sendall(b"Connected: Universal Robots Dashboard Server\n")
+            for line in lines:
+                answer = answers.get(line.strip(), f"Could not understand: '{line.strip()}'")
+                conn.sendall((answer + "\n").encode())
 
 
 def test_a_protective_stop_is_left_for_the_operator(

@@ -221,16 +221,17 @@ def test_progress_lines_and_summary_for_a_person(
     assert "pick picked" in result.stdout
     log = (tmp_path / "debug.log").read_text()
     # Every controller call with its duration: the TCP offset, the steady flange pose, each
-    # pre-flight query, the readiness bits and the moves.
+    # pre-flight query, the readiness bits and the moves, and the session's dashboard questions.
     for call in (
         "tcp_offset()",
         "fresh_sample()",
         "is_pose_within_safety_limits(",
         "has_ik_solution(",
-        "remote_control()",
         "move_l_async(",
     ):
         assert re.search(rf"{re.escape(call)}.* -> ok .* in \d+\.\d\d ms", log), call
+    for question in ("'PolyscopeVersion'", "'is in remote control'"):
+        assert re.search(rf"dashboard {question} -> .* in \d+\.\d\d ms", log), question
 
 
 # --- refusals: nothing moves ----------------------------------------------------------------------

@@ -265,7 +265,8 @@ def test_refused_rtde_start_is_a_connection_error(sim_controller: SimFactory) ->
 
 
 def test_nothing_listening_is_a_connection_error(loopback_host: str) -> None:
-    with pytest.raises(RobotConnectionError, match="30004"):
+    # The session's dashboard connection is the first thing it opens.
+    with pytest.raises(RobotConnectionError, match=r"dashboard server \(port 29999\)"):
         URRtdeArm(loopback_host, watchdog_s=TEST_WATCHDOG_S)
 
 

@@ -1,7 +1,8 @@
-"""What ur_rtde 1.6.5's failures mean for the operator, as typed errors that say what to do.
+"""What the session's failures mean for the operator, as typed errors that say what to do.
 
 ur_rtde reports every failure as a RuntimeError with an English text; the child process
-(robot/ur/worker.py) sends it over as a ``Failure``. These functions turn it into the error the
+(robot/ur/worker.py) sends it over as a ``Failure``. The session's own dashboard connection
+(robot/ur/dashboard.py) fails with an ``OSError``. These functions turn either into the error the
 session raises: ``SafetyRefusal`` when the cell is not in a state to run (Local mode, a stop, the
 arm off), ``RobotConnectionError`` when the link cannot be made or is lost, ``RobotFault`` when
 the controller refused one command (docs/ur-rtde.md, "What makes the client throw or hang").
@@ -11,15 +12,11 @@ from __future__ import annotations
 
 from handeye_pick.errors import RobotConnectionError, RobotError, RobotFault, SafetyRefusal
 from handeye_pick.robot.port import RobotMode, SafetyMode, mode_name
+from handeye_pick.robot.ur.dashboard import DASHBOARD_PORT, Dashboard
 from handeye_pick.robot.ur.worker import Failure, LinkLost
 
 # Parts of ur_rtde's RuntimeError texts (1.6.5) and what to tell the operator instead.
 _CONNECT_ERROR_HINTS: tuple[tuple[str, str], ...] = (
-    (
-        "remote control",
-        "the robot is in Local mode: switch the teach pendant to Remote Control (enable it under "
-        "Settings > System > Remote Control first), then retry",
-    ),
     (
         "already in use",
         "the RTDE input registers are held by another RTDE client (a URCap such as External "
@@ -62,7 +59,7 @@ def connect_error(host: str, failure: Failure) -> RobotError | SafetyRefusal:
 
     The controller's modes come first (read on the receive interface when the control interface
     was refused): a stop or an arm that is off is a ``SafetyRefusal`` with the pendant steps.
-    Then ur_rtde's text: Local mode is a ``SafetyRefusal``, the rest ``RobotConnectionError``.
+    Then ur_rtde's text, as a ``RobotConnectionError``.
     """
     if failure.safety_mode is not None and failure.robot_mode is not None:
         advice = _STOP_ADVICE.get(failure.safety_mode)
@@ -79,10 +76,7 @@ def connect_error(host: str, failure: Failure) -> RobotError | SafetyRefusal:
             )
     for fragment, hint in _CONNECT_ERROR_HINTS:
         if fragment in failure.message:
-            message = f"connect to {host}: {hint} (ur_rtde: {failure.message})"
-            if fragment == "remote control":
-                return SafetyRefusal(message)
-            return RobotConnectionError(message)
+            return RobotConnectionError(f"connect to {host}: {hint} (ur_rtde: {failure.message})")
     return RobotConnectionError(f"connect to {host}: {failure.exception_type}: {failure.message}")
 
 
@@ -94,3 +88,55 @@ def call_error(host: str, failure: Failure) -> RobotError:
     if failure.exception_type == LinkLost.__name__:
         return RobotConnectionError(text)
     return RobotFault(text)
+
+
+def local_mode_refusal(host: str) -> SafetyRefusal:
+    """A session refused at connect because the pendant is in Local mode (nothing was sent)."""
+    return SafetyRefusal(
+        f"connect to {host} refused, nothing sent: the robot is in Local mode: switch the teach "
+        "pendant to Remote Control (enable it under Settings > System > Remote Control first), "
+        "then retry"
+    )
+
+
+def dashboard_connect_error(host: str, exc: OSError) -> RobotConnectionError:
+    """The dashboard server could not be reached or asked when a session connects: the first
+    thing a session does, so also what a wrong address or a controller that is off gives."""
+    return RobotConnectionError(
+        f"connect to {host}: the dashboard server (port {DASHBOARD_PORT}) does not answer "
+        f"({exc or type(exc).__name__}): check the address, the network cable and that the "
+        "controller is booted, and on PolyScope 5 that the dashboard server is enabled "
+        "(Settings > Security > Services); PolyScope X has none, so handeye-pick cannot drive it"
+    )
+
+
+def dashboard_lost_error(host: str, operation: str, exc: OSError) -> RobotConnectionError:
+    """The session's dashboard connection failed mid-session; the session has stopped the arm
+    and ended."""
+    return RobotConnectionError(
+        f"{operation} on {host}: the dashboard server (port {DASHBOARD_PORT}) stopped answering "
+        f"({exc or type(exc).__name__}): the session is over (the arm stopped through RTDE and "
+        "the watchdog); check the controller and the network, then start a new session"
+    )
+
+
+def connect_dashboard(host: str, timeout_s: float) -> tuple[Dashboard, tuple[int, ...] | None]:
+    """A session's dashboard connection and PolyScope's version, the first thing a session
+    opens; each failure as the error the operator reads. A controller in Local mode is refused
+    here, before ur_rtde connects (its connection would stop the running program)."""
+    try:
+        dashboard = Dashboard(host, timeout_s)
+    except OSError as exc:
+        raise dashboard_connect_error(host, exc) from None
+    try:
+        version = dashboard.polyscope_version()
+        remote = dashboard.in_remote_control(version)
+    except BaseException as exc:
+        dashboard.close()
+        if isinstance(exc, OSError):
+            raise dashboard_connect_error(host, exc) from None
+        raise
+    if not remote:
+        dashboard.close()
+        raise local_mode_refusal(host)
+    return dashboard, version

@@ -1,12 +1,14 @@
 """RobotArm over ur_rtde 1.6.5, with ur_rtde contained in a child process (robot/ur/child.py).
 
-One ``URRtdeArm`` is one session: receive + control interfaces (+ IO when a gripper output is
-configured) + a dashboard client, opened once by the constructor and closed by ``close()`` or the
-``with`` block. Every ur_rtde result is checked: a ``False`` becomes ``RobotFault`` carrying the
-controller's safety mode, runtime state and robot mode; a lost link, a dead child or a call that
-does not answer in time becomes ``RobotConnectionError``, after which the session is dead and the
-program is stopped through the dashboard (robot/ur/dashboard.py). It never reconnects and never
-re-issues a motion. What ur_rtde's own failures mean for the operator is robot/ur/advice.py.
+One ``URRtdeArm`` is one session: one dashboard connection (robot/ur/dashboard.py: the PolyScope
+version, and Remote Control before ur_rtde connects and whenever asked) + receive + control
+interfaces (+ IO when a gripper output is configured), opened once by the constructor and closed
+by ``close()`` or the ``with`` block. Every ur_rtde result is checked: a ``False`` becomes
+``RobotFault`` carrying the controller's safety mode, runtime state and robot mode; a lost link, a
+dead child or a call that does not answer in time becomes ``RobotConnectionError``, after which
+the session is dead and the program is stopped through fresh dashboard connections. A dashboard
+that stops answering ends the session too, the arm stopped through RTDE. It never reconnects and
+never re-issues a motion. What the failures mean for the operator is robot/ur/advice.py.
 
 Frames and units as in robot/port.py: 4x4 float64 transforms in metres; ``T_base_tcp`` includes
 the controller's active TCP offset; ``T_base_flange = T_base_tcp @ inv(T_flange_tcp)``.
@@ -43,12 +45,9 @@ from handeye_pick.robot.port import (
     Waypoint,
     mode_name,
 )
+from handeye_pick.robot.ur.advice import connect_dashboard, dashboard_lost_error
 from handeye_pick.robot.ur.child import Child
-from handeye_pick.robot.ur.dashboard import (
-    has_remote_control_command,
-    polyscope_version,
-    stop_program_until_confirmed,
-)
+from handeye_pick.robot.ur.dashboard import stop_program_until_confirmed
 from handeye_pick.robot.ur.worker import Sample
 
 log = logging.getLogger(__name__)
@@ -142,7 +141,8 @@ class URRtdeArm:
     process has been silent this long; it stays fed while this object's process lives.
     ``connect_timeout_s`` bounds the whole connection (ur_rtde can block forever on a controller
     that stops answering mid-handshake); ``call_timeout_s`` bounds every other call (ur_rtde
-    itself gives up on a busy control script after about 4 s). ``on_sample`` hears every RTDE
+    itself gives up on a busy control script after about 4 s) and every dashboard connect and
+    answer. ``on_sample`` hears every RTDE
     sample read (a recording's ``base -> flange``): every few ms while a move is watched.
     """
 
@@ -160,17 +160,22 @@ class URRtdeArm:
         self.host = host
         self._on_sample = on_sample
         self._stop_decel_mps2 = stop_decel_mps2
-        self._child = Child(
-            host,
-            with_io=with_io,
-            watchdog_s=watchdog_s,
-            connect_timeout_s=connect_timeout_s,
-            call_timeout_s=call_timeout_s,
+        self._dashboard, self._version = connect_dashboard(host, call_timeout_s)
+        self.controller_version = (
+            "unknown" if self._version is None else ".".join(str(v) for v in self._version)
         )
-        self.controller_version = self._child.controller_version
-        self._has_remote_control = has_remote_control_command(
-            polyscope_version(self.controller_version)
-        )
+        """PolyScope's version as the dashboard reports it ('5.15.0.1234')."""
+        try:
+            self._child = Child(
+                host,
+                with_io=with_io,
+                watchdog_s=watchdog_s,
+                connect_timeout_s=connect_timeout_s,
+                call_timeout_s=call_timeout_s,
+            )
+        except BaseException:
+            self._dashboard.close()
+            raise
         try:
             self.tcp_offset()
         except BaseException:
@@ -454,15 +459,26 @@ class URRtdeArm:
             )
 
     def close(self) -> None:
-        """Disconnect every interface and end the child; safe to call twice."""
+        """Disconnect every interface, end the child and close the dashboard connection; safe to
+        call twice."""
         self._child.close()
+        self._dashboard.close()
 
     def remote_control(self) -> bool:
-        """The pendant's Remote Control mode, asked through the session's dashboard client;
-        True without asking on a controller that has no such mode (robot/ur/dashboard.py)."""
-        if not self._has_remote_control:
-            return True
-        return bool(self._child.call("remote_control"))
+        """The pendant's Remote Control mode, asked on the session's dashboard connection; True
+        without asking on a controller that has no such mode (robot/ur/dashboard.py).
+
+        A dashboard that no longer answers ends the session: the arm is stopped (stopL, then the
+        starved watchdog stops the program) and ``RobotConnectionError`` says so in one line."""
+        self._child.require_alive("remote control")
+        try:
+            return self._dashboard.in_remote_control(self._version)
+        except OSError as exc:
+            error = dashboard_lost_error(self.host, "remote control", exc)
+        self.stop_linear(self._stop_decel_mps2)
+        self._child.end(str(error))
+        self._dashboard.close()
+        raise error
 
     # --- motion watch ------------------------------------------------------------------------
 

@@ -117,31 +117,34 @@ class Child:
             target=_log_lines, args=(self._process.stdout, host), name="ur_rtde output", daemon=True
         ).start()
         log.debug("connecting to %s (ur_rtde in child pid %s)", host, self._process.pid)
-        self.controller_version = self._hello(connect_timeout_s)
-        """PolyScope's version as ur_rtde's ``polyscopeVersion()`` gives it ('5.15.0.1234')."""
+        self._hello(connect_timeout_s)
 
-    def _hello(self, timeout_s: float) -> str:
+    def _hello(self, timeout_s: float) -> None:
         try:
             kind, value = self._receive("connect", timeout_s)
         except BaseException:
             self.end()
             raise
         if kind == "hello":
-            return str(value)
+            return
         self.end()
         if kind == "failure" and isinstance(value, dict):
             raise connect_error(self.host, Failure(**value))
         raise RobotConnectionError(f"connect to {self.host}: unexpected first message {value!r}")
 
-    def call(self, operation: str, *args: object, timeout_s: float | None = None) -> object:
-        """One request to the child; its result, or a typed error. Ends the session on a lost
-        link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``)."""
-        timeout_s = self._call_timeout_s if timeout_s is None else timeout_s
+    def require_alive(self, operation: str) -> None:
+        """``RobotConnectionError`` for ``operation`` once the session is over."""
         if self.dead_reason is not None:
             raise RobotConnectionError(
                 f"{operation} on {self.host}: the session is over ({self.dead_reason}); "
                 "start a new one"
             )
+
+    def call(self, operation: str, *args: object, timeout_s: float | None = None) -> object:
+        """One request to the child; its result, or a typed error. Ends the session on a lost
+        link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``)."""
+        timeout_s = self._call_timeout_s if timeout_s is None else timeout_s
+        self.require_alive(operation)
         if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first
             self._receive(operation, timeout_s)
         try:

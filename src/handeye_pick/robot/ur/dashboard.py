@@ -1,13 +1,12 @@
-"""The controller's dashboard server (port 29999) from plain sockets, and when to ask it about
-Remote Control.
+"""The controller's dashboard server (port 29999) from plain sockets: the project's one dashboard
+client, and the one place that asks the PolyScope version and Remote Control.
 
-One line out, one line back, every wait bounded: ``status`` reads the controller through it
-(robot/ur/readout.py) and a session whose RTDE link is lost stops the program through it
-(``stop_program_until_confirmed``), with no ur_rtde code that could reconnect or hang
-(docs/ur-rtde.md, "Dashboard server"). The session's own dashboard queries go through ur_rtde's
-DashboardClient in the child process (robot/ur/worker.py); the parent applies
-``has_remote_control_command`` before it asks, so the session and ``status`` read Remote Control
-by the same rule. Standard library only.
+One line out, one line back, every wait bounded. A session (robot/ur/arm.py) keeps one
+``Dashboard`` for its whole life and asks its version and Remote Control through it; ``status``
+reads the controller through one of its own (robot/ur/readout.py); a session whose RTDE link is
+lost stops the program through fresh connections (``stop_program_until_confirmed``). No ur_rtde
+code is involved, so nothing here can reconnect or hang (docs/ur-rtde.md, "Dashboard server").
+Standard library only.
 """
 
 from __future__ import annotations
@@ -32,25 +31,14 @@ that stalled for 8 s still gets its stop once it answers again)."""
 STOP_RETRY_S = 0.25
 
 
-def polyscope_version(text: str) -> tuple[int, ...] | None:
-    """(5, 15, 0, 1234) from '5.15.0.1234' (what ur_rtde's ``polyscopeVersion()`` returns) or
-    from the dashboard's 'URSoftware 5.15.0.1234 (Jul 12 2023)'; None when no version is found."""
+def parse_version(text: str) -> tuple[int, ...] | None:
+    """(5, 15, 0, 1234) from the dashboard's 'URSoftware 5.15.0.1234 (Jul 12 2023)' or from
+    '5.15.0.1234'; None when no version is found."""
     for word in text.split():
         parts = word.split(".")
         if len(parts) > 1 and all(part.isdigit() for part in parts):
             return tuple(int(part) for part in parts)
     return None
-
-
-def has_remote_control_command(version: tuple[int, ...] | None) -> bool:
-    """Whether the controller has Remote Control to check: PolyScope 5.6 or later.
-
-    ``version`` is (major, minor, ...). Below 5.6 there is no local mode and the dashboard
-    answers ``is in remote control`` with ``Could not understand``, which must not read as
-    "local". An unreadable version (None) keeps the check: a controller without the command then
-    reads as local and is refused, the safe side.
-    """
-    return version is None or version[:2] >= REMOTE_CONTROL_SINCE
 
 
 class Dashboard:
@@ -64,6 +52,8 @@ class Dashboard:
     def __init__(self, host: str, timeout_s: float) -> None:
         self._sock = socket.create_connection((host, DASHBOARD_PORT), timeout=timeout_s)
         self._reader = self._sock.makefile("r", encoding="utf-8", errors="replace", newline="\n")
+        self._unanswered = 0
+        """Requests sent whose answer was never read (an ask interrupted by Ctrl-C)."""
         try:
             if not self._reader.readline(MAX_LINE):
                 raise ConnectionError("no banner")
@@ -84,11 +74,48 @@ class Dashboard:
 
     def ask(self, command: str) -> str:
         """Send one command line; its answer line, stripped."""
+        # An earlier ask cut short after its request left (Ctrl-C) has an answer on its way:
+        # read past it, or every later answer would be the one before it.
+        while self._unanswered:
+            self._answer(command)
+            self._unanswered -= 1
+        self._unanswered += 1
+        started = time.perf_counter()
         self._sock.sendall(command.encode("ascii") + b"\n")
+        answer = self._answer(command)
+        self._unanswered -= 1
+        log.debug(
+            "dashboard %r -> %.60r in %.2f ms",
+            command,
+            answer,
+            (time.perf_counter() - started) * 1000.0,
+        )
+        return answer
+
+    def _answer(self, command: str) -> str:
         answer = self._reader.readline(MAX_LINE)
         if not answer:
             raise ConnectionError(f"no answer to {command!r}")
         return answer.strip()
+
+    def polyscope_version(self) -> tuple[int, ...] | None:
+        """PolyScope's version (major, minor, bugfix, build) from ``PolyscopeVersion``; None
+        when the answer holds no version number."""
+        return parse_version(self.ask("PolyscopeVersion"))
+
+    def in_remote_control(self, version: tuple[int, ...] | None) -> bool:
+        """Whether the pendant is in Remote Control, for a controller of ``version`` (as
+        ``polyscope_version`` gives it).
+
+        Only PolyScope 5.6 and later have Local/Remote Control and the dashboard's ``is in remote
+        control``: an older controller is always commandable (True, nothing asked), and would
+        answer ``Could not understand``, which must not read as "local". An unreadable version
+        (None) is asked: a controller without the command then reads as local and is refused,
+        the safe side.
+        """
+        if version is not None and version[:2] < REMOTE_CONTROL_SINCE:
+            return True
+        return self.ask("is in remote control").lower() == "true"
 
     def close(self) -> None:
         self._reader.close()

@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from handeye_pick.errors import RobotConnectionError
 from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
 from handeye_pick.robot.port import RobotStatus, RuntimeState
-from handeye_pick.robot.ur.dashboard import DASHBOARD_PORT, Dashboard, has_remote_control_command
+from handeye_pick.robot.ur.dashboard import DASHBOARD_PORT, Dashboard
 
 RTDE_PORT = 30004
 TIMEOUT_S = 2.0
@@ -216,15 +216,11 @@ def _receive(sock: socket.socket, count: int) -> bytes:
 
 
 def _ask_dashboard(host: str, version: tuple[int, ...]) -> tuple[bool, str, str | None]:
-    """Remote control (True where there is none to be in), ``programState`` and the loaded
-    program's path."""
+    """Remote control (True where there is none to be in; ``version`` is the one RTDE reported),
+    ``programState`` and the loaded program's path."""
     try:
         with Dashboard(host, TIMEOUT_S) as dashboard:
-            remote = (
-                dashboard.ask("is in remote control").lower() == "true"
-                if has_remote_control_command(version)
-                else True
-            )
+            remote = dashboard.in_remote_control(version)
             program_state = dashboard.ask("programState")
             loaded = dashboard.ask("get loaded program")
     except OSError as exc:

@@ -12,7 +12,13 @@ kill this child; the parent sees a dead pipe, reports a RobotConnectionError and
 through a fresh dashboard connection. The child ignores SIGINT so the parent can still send stopL
 after Ctrl-C.
 
-Protocol: the child answers ``("hello", controller_version)`` or ``("failure", Failure fields)``
+The child opens no dashboard connection of its own: the parent's one dashboard connection
+(robot/ur/dashboard.py) asks the PolyScope version and Remote Control, before this process starts
+and before every move. ur_rtde's control interface still connects to the dashboard server by
+itself while it connects (docs/ur-rtde.md, "Dashboard server"); it is told not to ask Remote
+Control there.
+
+Protocol: the child answers ``("hello", None)`` or ``("failure", Failure fields)``
 after connecting, then one reply per request ``(operation, args)``: ``("ok", result)`` or
 ``("failure", Failure fields)``; samples travel as ``Sample`` fields. Poses cross the pipe as UR
 vectors (m, rad) in plain lists; the parent does all frame maths.
@@ -106,7 +112,6 @@ class _Session:
 
     def __init__(self, host: str, with_io: bool, watchdog_s: float) -> None:
         # Imported here: the parent process never loads ur_rtde.
-        import dashboard_client
         import rtde_control
         import rtde_io
         import rtde_receive
@@ -125,7 +130,13 @@ class _Session:
                 robot_mode,
             )
         try:
-            self._control: Any = rtde_control.RTDEControlInterface(host)
+            # The parent asked Remote Control before starting this process, on its own
+            # dashboard connection; ur_rtde would ask again on its own.
+            flags = (
+                rtde_control.RTDEControlInterface.FLAG_UPLOAD_SCRIPT
+                | rtde_control.RTDEControlInterface.FLAG_DISABLE_REMOTE_CONTROL_CHECK
+            )
+            self._control: Any = rtde_control.RTDEControlInterface(host, -1.0, flags)
         except RuntimeError as exc:  # e.g. the program cannot start during a protective stop
             raise _ConnectRefused(
                 exc, int(self._receive.getSafetyMode()), int(self._receive.getRobotMode())
@@ -135,9 +146,6 @@ class _Session:
         self.kick_period_s = watchdog_s / WATCHDOG_KICKS_PER_WINDOW
         self._last_kick_s = time.monotonic()
         self._io: Any = rtde_io.RTDEIOInterface(host) if with_io else None
-        self._dashboard: Any = dashboard_client.DashboardClient(host)
-        self._dashboard.connect()
-        self.controller_version = str(self._dashboard.polyscopeVersion())
         # A refused RTDE start leaves the receive interface constructed but dead, its getters
         # returning zeros (docs/ur-rtde.md, "What makes the client throw or hang"): refuse it.
         if not self._receive.isConnected() or not self._control.isConnected():
@@ -215,12 +223,6 @@ class _Session:
         if not self._receive.isConnected():
             raise LinkLost("the RTDE connection was lost")
 
-    def remote_control(self) -> bool:
-        """The dashboard's ``is in remote control``. The parent asks only a controller that has
-        the command (``has_remote_control_command`` in robot/ur/dashboard.py, not imported: see
-        above); elsewhere ur_rtde's answer would read as local control."""
-        return bool(self._dashboard.isInRemoteControl())
-
     def tcp_offset(self) -> list[float]:
         return list(self._control.getTCPOffset())
 
@@ -283,11 +285,10 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
     except Exception as exc:  # every failure goes back to the parent, typed there
         _answer(conn, ("failure", asdict(Failure("connect", type(exc).__name__, str(exc)))))
         os._exit(0)
-    _answer(conn, ("hello", session.controller_version))
+    _answer(conn, ("hello", None))
     operations: dict[str, Callable[..., object]] = {
         "sample": session.sample,
         "fresh_sample": session.fresh_sample,
-        "remote_control": session.remote_control,
         "tcp_offset": session.tcp_offset,
         "is_pose_within_safety_limits": session.is_pose_within_safety_limits,
         "has_ik_solution": session.has_ik_solution,
