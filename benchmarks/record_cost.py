@@ -88,8 +88,8 @@ def main() -> None:
     print(f"  without --record   median overhead {med_plain:7.2f} ms")
     print(f"  with --record      median overhead {med_rec:7.2f} ms")
     print(f"  recording's cost:  {med_rec - med_plain:+.2f} ms per cycle (median; goal <= 2 ms)")
-    print(f"  one logged base -> flange frame: {frame_us:.0f} us; at 100 Hz while the arm moves "
-          f"{frame_us * 100 / 1000:.1f} ms per second of motion")
+    print(f"  one logged base -> flange frame: {frame_us:.0f} us; at most 100 Hz while the arm "
+          f"moves {frame_us * 100 / 1000:.1f} ms per second of motion")
     print(f"  file size: {size / 1024:.1f} KiB per cycle")
 
 if __name__ == "__main__":
