@@ -221,3 +221,25 @@ def test_sigterm_mid_move_reports_once_after_the_outcome(
     _, outcome = audit_records(tmp_path)
     assert (outcome["status"], outcome["pick_id"]) == ("interrupted", report["pick_id"])
     assert not ctl.snapshot().moving
+
+
+def test_a_reader_that_closes_the_pipe_gets_no_traceback(tmp_path: Path) -> None:
+    """``handeye-pick report --json | head -c 1``: the reader has what it wanted; the command
+    ends with its own status and nothing but its own lines on stderr."""
+    audit = tmp_path / "audit.jsonl"
+    audit.write_text("")
+    process = subprocess.Popen(
+        [*CLI, "report", str(audit), "--json"],
+        cwd=ROOT,
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert process.stdout is not None
+    assert process.stderr is not None
+    process.stdout.close()  # before the report is written: every write to it fails
+    stderr = process.stderr.read()
+    assert process.wait(timeout=60) == 0, stderr
+    assert "Traceback" not in stderr, stderr
+    assert "BrokenPipe" not in stderr, stderr

@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import signal
 import sys
 from collections.abc import Collection, Sequence
@@ -174,6 +175,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             file=sys.stderr,
         )
         status, failure = ExitCode.INTERNAL, exc
-    if report is not None and json_asked:
-        report.write(status, failure)
+    try:
+        if report is not None and json_asked:
+            report.write(status, failure)
+        sys.stdout.flush()
+    except BrokenPipeError:
+        # The reader closed its end (``| head``): what it wanted it has; the status stands.
+        # Standard output now points at nothing, so the interpreter's own flush at exit is quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
     return status
