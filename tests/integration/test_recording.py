@@ -246,7 +246,7 @@ async def _watch_live(host: str, port: int, frames_wanted: int, run: Any) -> lis
             assert (opcode, subscription) == (1, 7)
             flange += [t for t in decode(data[13:]).transforms if t.child_frame_id == "flange"]
         assert (await moving)["ok"]
-        return [sorted(channels), flange]
+        return [{topic: c["schemaName"] for topic, c in channels.items()}, flange]
 
 
 def test_the_live_view_streams_the_flange_while_the_arm_moves(
@@ -255,10 +255,13 @@ def test_the_live_view_streams_the_flange_while_the_arm_moves(
     ctl = sim_controller(tcp_offset=TCP_OFFSET, speed_factor=4.0)
     with loop(loop_config(tmp_path, ctl.host), "--live", f"{loopback_host}:8765") as run:
         assert run.ask({"id": "m", "op": "move", "pose": "home"})["ok"]
-        topics, flange = asyncio.run(_watch_live(loopback_host, 8765, 20, run))
+        schemas, flange = asyncio.run(_watch_live(loopback_host, 8765, 20, run))
         assert run.ask({"id": "q", "op": "quit"})["status"] == "bye"
         assert run.close() == 0
-    assert {"/tf", "/cell/plan", "/cell/reached", "/cell/audit"} <= set(topics)
+    assert {"/tf", "/cell/plan", "/cell/reached", "/cell/audit"} <= set(schemas)
+    # The JSON channels say what they carry, in the live view as in a recording.
+    assert schemas["/cell/audit"] == "handeye_pick.AuditRecord"
+    assert schemas["/cell/status"] == "handeye_pick.CellStatus"
     positions = np.array([[t.translation.x, t.translation.y, t.translation.z] for t in flange])
     assert np.ptp(positions, axis=0).max() > 0.01  # the flange moved between the frames
 

@@ -493,3 +493,39 @@ def test_bad_cell_sections_are_refused_naming_the_key(
 def test_joint_speed_caps_are_enforced(cell: Path) -> None:
     with pytest.raises(ConfigError, match=r"motion.joint_speed_rps: must be at most 1.05"):
         _load_with(cell, motion__joint_speed_rps=2.0)
+
+
+def _keys_allowed(tmp_path: Path, data: dict[str, Any], section: tuple[str, ...]) -> set[str]:
+    """The keys the reader allows in ``section`` of ``data``, from its own refusal of one it
+    does not know ("unknown key (expected one of a, b, c)")."""
+    trial = copy.deepcopy(data)
+    target = trial
+    for key in section:
+        target = target[key]
+    target["zz_not_a_key"] = 1
+    with pytest.raises(ConfigError, match="unknown key") as refused:
+        load_config(_write(tmp_path, trial))
+    listed = str(refused.value).split("expected one of ", 1)[1].split(")", 1)[0]
+    return {key.strip() for key in listed.split(",")}
+
+
+def test_the_example_config_names_every_key_the_reader_allows(tmp_path: Path) -> None:
+    """config/cell.example.yaml says it explains every key: each key the reader allows in each
+    of its sections appears there, set or in a comment (``key:``)."""
+    example = ROOT / "config" / "cell.example.yaml"
+    text = example.read_text()
+    data = yaml.safe_load(text)
+    data["hand_eye"]["file"] = str(ROOT / "config" / data["hand_eye"]["file"])
+    sections = [(), ("robot",), ("robot", "gripper")]
+    # poses: holds names the integrator chooses, not keys
+    sections += [
+        (key,) for key, value in data.items() if isinstance(value, dict) and key != "robot"
+    ]
+    sections.remove(("poses",))
+    missing = {
+        ".".join((*section, key))
+        for section in sections
+        for key in _keys_allowed(tmp_path, data, section)
+        if f"{key}:" not in text
+    }
+    assert not missing, f"keys the example config does not explain: {sorted(missing)}"

@@ -61,8 +61,8 @@ COMMANDS: dict[str, tuple[str, str]] = {
     ),
     "run": (
         "run",
-        "run the cell for a shift: JSON requests (capture, pick, place, move, status, resume, "
-        "quit) one per line on stdin or a TCP socket",
+        "run the cell for a shift: JSON requests (capture, pick, place, move, status, stop, "
+        "resume, quit) one per line on stdin or a TCP socket",
     ),
     "poses": ("poses", "propose reachable poses for a hand-eye dataset; moves nothing"),
     "collect": ("collect", "move through a pose list and capture a hand-eye dataset"),

@@ -42,11 +42,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = sub.add_parser(
         "run",
         help="run the cell for a shift: JSON requests (capture, pick, place, move, status, "
-        "resume, quit) one per line on stdin or a TCP socket",
+        "stop, resume, quit) one per line on stdin or a TCP socket",
         description="Connect once and answer one JSON request per line with one JSON reply per "
         "line: capture (latch the flange pose), pick (candidates in the camera frame, mm), "
-        "place, move (named pose), status, resume (after a fault, cleared on the pendant), "
-        "quit. A fault stops the arm and halts the cell until resume. Exit status: 0 after quit "
+        "place, move (named pose), status, stop (brake the running request, answered at once), "
+        "resume (after a fault or a stop, cleared on the pendant), quit. A fault or a stop "
+        "stops the arm and halts the cell until resume. Exit status: 0 after quit "
         "or end of input, 2 bad config, 4 robot unreachable at start, 130 Ctrl-C, 143 SIGTERM.",
     )
     add_config_arg(parser)

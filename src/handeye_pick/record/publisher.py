@@ -58,7 +58,10 @@ MOVED_M = 1e-6
 """A pose that changed by less than this (m, and about this in rad) counts as unchanged."""
 DEFAULT_CLOUD_POINTS = 50_000
 """Most points of a recorded cloud (``--cloud-points``): thinned evenly beyond that."""
-_OBJECT = {"type": "object"}
+STATUS_SCHEMA = "handeye_pick.CellStatus"
+"""The schema name of /cell/status: the session's state as JSON (any object)."""
+AUDIT_SCHEMA = "handeye_pick.AuditRecord"
+"""The schema name of /cell/audit: one audit record as JSON (any object)."""
 WORK_QUEUE = 10_000
 """Messages waiting for the worker thread at most (a minute and a half of frames at 100 Hz)."""
 CLOUD_QUEUE = 2
@@ -97,9 +100,20 @@ class Publisher:
         self._plan = SceneUpdateChannel("/cell/plan", context=context)
         self._reached = SceneUpdateChannel("/cell/reached", context=context)
         self._scene = SceneUpdateChannel("/cell/scene", context=context)
-        # A JSON channel needs a schema for the live view to advertise it: any object.
-        self._status = foxglove.Channel("/cell/status", schema=_OBJECT, context=context)
-        self._audit = foxglove.Channel("/cell/audit", schema=_OBJECT, context=context)
+        # A JSON channel needs a schema for the live view to advertise it; named, so a panel
+        # and a reader of the file see what the messages are (docs/recording.md).
+        self._status = foxglove.Channel(
+            "/cell/status",
+            schema=_json_schema(STATUS_SCHEMA),
+            message_encoding="json",
+            context=context,
+        )
+        self._audit = foxglove.Channel(
+            "/cell/audit",
+            schema=_json_schema(AUDIT_SCHEMA),
+            message_encoding="json",
+            context=context,
+        )
         self._points = PointCloudChannel("/camera/points", context=context)
         self._server = start_live(context, *live) if live is not None else None
         self.files: McapFiles | None = None
@@ -355,3 +369,9 @@ def _put_end(clouds: queue.Queue[tuple[Path, Capture | None] | None]) -> None:
         except queue.Full:
             with contextlib.suppress(queue.Empty):  # the reader emptied it meanwhile
                 clouds.get_nowait()
+
+
+def _json_schema(name: str) -> foxglove.Schema:
+    """A JSON schema named ``name`` that admits any object."""
+    data = json.dumps({"title": name, "type": "object"}).encode()
+    return foxglove.Schema(name=name, encoding="jsonschema", data=data)
