@@ -36,7 +36,11 @@ from handeye_pick.steps import Move
 from mocks.ur_controller import SimulatedController
 from tests.conftest import TEST_WATCHDOG_S
 from tests.integration.handeye_cell import ur_rtde_child_pid, wait_until
-from tests.integration.test_gripper_pick import OBJECT, PART_MM, PLACE, ROBOTIQ, TOOL_PAYLOAD
+from tests.integration.test_gripper_pick import (
+    PART_MM,
+    PLACE,
+    robotiq_config,
+)
 from tests.integration.test_guards_motion import _DuringMove
 from tests.integration.test_pick_cli import (
     DEMO,
@@ -95,14 +99,7 @@ def test_a_missed_grasp_under_blending_ends_at_the_retreat_and_never_heads_for_t
     (retreat -> place-approach -> place); after a miss it must be where the sequence ends. With
     ``None`` for the missed grasp's last move the arm drove on to the place, gripper empty."""
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)  # no part: the gripper misses
-    config = write_config(
-        tmp_path,
-        ctl.host,
-        robot_extra=ROBOTIQ + TOOL_PAYLOAD,
-        object=OBJECT,
-        place=PLACE,
-        motion=BLENDED,
-    )
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, motion=BLENDED)
     with Cell(config) as cell:
         reply = _pick_request(Runner(cell), "p")
         assert cell.halted is None
@@ -136,14 +133,7 @@ def test_a_part_dropped_along_the_blended_transfer_stops_the_arm_short_of_the_pl
     ctl = sim_controller(
         tcp_offset=TCP_OFFSET, part_width_mm=PART_MM, inject=("gripper-drop@move:2:0.2",)
     )
-    config = write_config(
-        tmp_path,
-        ctl.host,
-        robot_extra=ROBOTIQ + TOOL_PAYLOAD,
-        object=OBJECT,
-        place=PLACE,
-        motion=BLENDED,
-    )
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, motion=BLENDED)
     with Cell(config) as cell:
         reply = _pick_request(Runner(cell), "p")
         assert cell.halted is not None

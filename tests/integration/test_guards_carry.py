@@ -23,8 +23,12 @@ from handeye_pick.cell.sequence import GRASP_WATCH_PERIOD_S
 from handeye_pick.errors import PartDropped
 from mocks.ur_controller import SimulatedController
 from tests.integration.handeye_cell import wait_until
-from tests.integration.test_gripper_pick import OBJECT, PART_MM, PLACE, ROBOTIQ, TOOL_PAYLOAD
-from tests.integration.test_pick_cli import DEMO, TCP_OFFSET, audit_records, write_config
+from tests.integration.test_gripper_pick import (
+    PART_MM,
+    PLACE,
+    robotiq_config,
+)
+from tests.integration.test_pick_cli import DEMO, TCP_OFFSET, audit_records
 
 SimFactory = Callable[..., SimulatedController]
 SPEED_MPS, ACCEL_MPS2, STOP_DECEL_MPS2 = 0.25, 1.2, 10.0  # the config's motion section
@@ -55,14 +59,7 @@ def test_a_part_dropped_early_in_a_long_carry_stops_the_arm_where_it_fell(
         part_width_mm=PART_MM,
         inject=(f"gripper-drop@move:4:{DROP_FRACTION}",),
     )
-    config = write_config(
-        tmp_path,
-        ctl.host,
-        robot_extra=ROBOTIQ + TOOL_PAYLOAD,
-        object=OBJECT,
-        place=PLACE,
-        motion=MOTION,
-    )
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, motion=MOTION)
     with Cell(config) as cell:
         picked = cell.pick(load_detection(DEMO / "detection.yaml"), place=False)
         assert picked.status == "picked"

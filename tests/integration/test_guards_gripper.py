@@ -24,8 +24,8 @@ from tests.integration.test_gripper_pick import (
     OBJECT,
     PART_MM,
     PLACE,
-    ROBOTIQ,
     TOOL_PAYLOAD,
+    robotiq_config,
 )
 from tests.integration.test_pick_cli import (
     DEMO,
@@ -63,9 +63,7 @@ def test_a_robotiq_contact_far_from_the_expected_width_is_missed(
     expected (a wrong part, one caught at an edge), are a missed grasp: the gripper opens, the
     arm retreats, the payload stays the empty tool's (never the part's), nothing is placed."""
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True, part_width_mm=part_mm)
-    config = write_config(
-        tmp_path, ctl.host, robot_extra=ROBOTIQ + TOOL_PAYLOAD, object=OBJECT, place=PLACE
-    )
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE)
     with Cell(config) as cell:
         result = cell.pick(load_detection(DETECTION))
     assert result.status == "missed"

@@ -18,8 +18,12 @@ import numpy as np
 from handeye_pick import Cell, load_detection
 from handeye_pick.geometry import Transform, ur_pose_to_matrix
 from mocks.ur_controller import SimulatedController
-from tests.integration.test_gripper_pick import OBJECT, PART_MM, PLACE, ROBOTIQ, TOOL_PAYLOAD
-from tests.integration.test_pick_cli import DEMO, TCP_OFFSET, audit_records, write_config
+from tests.integration.test_gripper_pick import (
+    PART_MM,
+    PLACE,
+    robotiq_config,
+)
+from tests.integration.test_pick_cli import DEMO, TCP_OFFSET, audit_records
 
 SimFactory = Callable[..., SimulatedController]
 BLENDED = "  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n  blend_mm: 20\n"
@@ -76,15 +80,7 @@ def test_every_step_and_every_stop_reaches_the_observers_with_its_own_poses(
     q_home = list(ctl.snapshot().q)
     q_home[0] += 0.2
     poses = f"  home: {{joints_rad: {q_home}}}\n"
-    config = write_config(
-        tmp_path,
-        ctl.host,
-        robot_extra=ROBOTIQ + TOOL_PAYLOAD,
-        object=OBJECT,
-        place=PLACE,
-        motion=BLENDED,
-        poses=poses,
-    )
+    config = robotiq_config(tmp_path, ctl.host, place=PLACE, motion=BLENDED, poses=poses)
     heard = Heard()
     steps: list[str] = []
     with Cell(config, observer=heard) as cell:
