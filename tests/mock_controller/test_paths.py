@@ -172,7 +172,9 @@ def test_protective_stop_mid_path(sim_controller: Factory) -> None:
     try:
         corners = square_corners(r.getActualTCPPose())
         assert not c.moveL(as_path(corners, RADIUS_M), False)
-        assert r.isProtectiveStopped()
+        # The control interface saw the stop first; the receive stream says so a sample or a
+        # few later (a loaded machine delays its thread).
+        wait_for(r.isProtectiveStopped)
         motion = ctl.motions[-1]
         assert motion["motion"] == 1
         assert motion["kind"] == "movePath"
