@@ -264,11 +264,10 @@ class _Session:
         sent and the reason comes back.
 
         ``stopScript()`` writes 255 to the command register this session holds, which only
-        ur_rtde's control script reads as a command, and only after that script answered ready
-        on its register protocol: a program that is not ours (a pendant program) never gets it,
-        unlike a dashboard ``stop``. It can wait up to 300 s for a program that does not stop;
-        the parent's bound on the ``close`` call (robot/ur/child.py) ends this process then, and
-        the starved watchdog stops ours.
+        ur_rtde's control script reads as a command: unlike a dashboard ``stop`` it cannot end a
+        program that is not ours (a pendant program started since). It then waits up to 300 s
+        for the program to stop, which such a program never does: the parent's bound on the
+        ``close`` call (``call_timeout_s``, robot/ur/child.py) ends this process first.
         """
         r = self._receive
         runtime_state, safety_mode = int(r.getRuntimeState()), int(r.getSafetyMode())
