@@ -18,6 +18,7 @@ from handeye_pick.progress import Progress
 from handeye_pick.robot.port import RobotArm, RobotStatus
 from handeye_pick.robot.ur.readout import ControllerReadout, read_controller
 from handeye_pick.safety import (
+    chain_checks,
     controller_problems,
     readiness_problems,
     tcp_offset_difference,
@@ -86,7 +87,8 @@ def outside_status(
     Ready means a pick could start now: the controller checks a pick makes, the active TCP
     offset against the config, no session holding the cell (``own_session``: the caller is that
     session, which does not count), no program running that a pick would stop or could not take
-    over (``_program_findings``).
+    over (``_program_findings``), and the camera chain's plausibility as a pick checks it, with
+    the same lines (``safety.chain_checks``, without a detection).
     """
     robot = config.robot
     with progress.step(f"reading {robot.host}"):
@@ -121,6 +123,9 @@ def outside_status(
                 tolerance_deg=robot.tcp_offset_tolerance_deg,
             )
         )
+    chain = chain_checks(config, calibration, None, readout.T_base_flange)
+    problems.extend(check.line for check in chain if not check.passed)
+    notes.extend(check.line for check in chain if check.passed)  # acknowledged by the cell
     state = _status(
         problems,
         halted,

@@ -28,8 +28,9 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "is written: it is left as found, and a running session is not disturbed) and show "
         "controller version, robot and safety mode, runtime state, the program, remote control, "
         "the active TCP offset against the config, the flange pose, T_base_cam and whether the "
-        "workspace box holds the current TCP. Not ready also while a session holds the cell, or "
-        "a program runs that a pick would stop or cannot take over.",
+        "workspace box holds the current TCP. Not ready also while a session holds the cell, a "
+        "program runs that a pick would stop or cannot take over, or the camera chain fails a "
+        "pick's plausibility checks (the same lines as the pick's refusal).",
     )
     add_config_arg(status)
     add_json_arg(status, "every reading, ready, the problems and the notes")
