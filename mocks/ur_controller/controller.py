@@ -38,7 +38,7 @@ from mocks.ur_controller.options import ControllerOptions
 from mocks.ur_controller.outputs import Io, Modes, OutputTable
 from mocks.ur_controller.path_script import PathSpec, PathSyntaxError, injected_path
 from mocks.ur_controller.profiles import PROFILES, Profile
-from mocks.ur_controller.program import ControlScript, Registers
+from mocks.ur_controller.program import ControlScript, PendantProgram, Registers
 from mocks.ur_controller.record import CommandRecord
 from mocks.ur_controller.rtde import RtdeServer
 from mocks.ur_controller.script_port import ScriptPort, register_offsets
@@ -93,7 +93,7 @@ class Controller:
         self._trace: dict[int, list[list[float]]] | None = {} if options.trace_tcp else None
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
-        self._script: ControlScript | None = None
+        self._script: ControlScript | PendantProgram | None = None
         # A received program waits this long (controller time) before it runs: (due, offset, path).
         self._program_start_s = options.program_start_s
         self._pending_program: tuple[float, int, PathSpec | None] | None = None
@@ -304,7 +304,7 @@ class Controller:
         return ""
 
     def program_name(self) -> str:
-        return "<unnamed>" if self._script is None else "rtde_control"
+        return "<unnamed>" if self._script is None else self._script.name
 
     def stop_program(self, reason: str) -> None:
         with self.lock:
@@ -321,11 +321,18 @@ class Controller:
             self.arm.halt("program paused")
             return True
 
-    def resume_program(self) -> bool:
+    def play_program(self, loaded: str) -> bool:
+        """The pendant's play: resume a paused program, or start the `loaded` one (a path,
+        empty when none is loaded) when none runs; False otherwise."""
         with self.lock:
-            if self._runtime_state() != RUNTIME_PAUSED or self._safety_mode != SAFETY_NORMAL:
+            if self._runtime_state() == RUNTIME_PAUSED and self._safety_mode == SAFETY_NORMAL:
+                self._paused = False
+                return True
+            if self._runtime_state() != RUNTIME_STOPPED or not loaded or self._start_refusal():
                 return False
-            self._paused = False
+            self._pending_program = None
+            self._script = PendantProgram(loaded.rsplit("/", 1)[-1])
+            log.info("pendant program %s started (dashboard play)", self._script.name)
             return True
 
     def power_on(self) -> bool:

@@ -80,8 +80,8 @@ class DashboardBackend(Protocol):
     def pause_program(self) -> bool:
         """False when no program is playing."""
 
-    def resume_program(self) -> bool:
-        """False unless paused with safety NORMAL."""
+    def play_program(self, loaded: str) -> bool:
+        """Resume a paused program (safety NORMAL), or start `loaded` when none runs."""
 
     def power_on(self) -> bool:
         """False unless powered off with safety NORMAL."""
@@ -224,7 +224,9 @@ class DashboardServer:
         if command == "pause":
             return "Pausing program" if ctl.pause_program() else "Failed to execute: pause"
         if command == "play":
-            return "Starting program" if ctl.resume_program() else "Failed to execute: play"
+            if ctl.play_program(self._loaded_program):
+                return "Starting program"
+            return "Failed to execute: play"
         if command == "power on":
             return "Powering on" if ctl.power_on() else "Failed to power on"
         if command == "power off":

@@ -79,6 +79,8 @@ class Registers:
 class ControlScript:
     """The running `rtde_control` program: call `cycle()` once per control cycle."""
 
+    name = "rtde_control"  # what the dashboard's programState names it: the script's def
+
     def __init__(self, registers: Registers, arm: Arm, record: CommandRecord, reg_offset: int,
                  protective_stop: Callable[[str], None], take_refused_move: Callable[[], bool],
                  now_s: float, path: PathSpec | None = None):
@@ -422,3 +424,27 @@ def _plain(value: Any) -> Any:
     if isinstance(value, np.floating):
         return float(value)
     return value
+
+
+class PendantProgram:
+    """A program started from the pendant (dashboard `play` of the loaded program), named after
+    its file (`pick.urp`): it plays until stopped and does nothing the simulation needs. It does
+    not speak ur_rtde's register protocol: a command id in the registers, 255 included, means
+    nothing to it, and it writes no output register."""
+
+    refusing = False
+    ack_delay_s = 0.0
+
+    def __init__(self, name: str):
+        self.name = name
+        self.running = True
+
+    def cycle(self, now_s: float) -> None:
+        """Nothing to do in a control cycle."""
+
+    def stop(self, reason: str, detail: dict[str, float] | None = None,
+             at_s: float | None = None) -> None:
+        """End the program (dashboard stop, a new program, a safety stop); no motion to halt."""
+        if self.running:
+            log.info("pendant program %s stopped: %s", self.name, reason)
+        self.running = False

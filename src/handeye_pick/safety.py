@@ -54,13 +54,18 @@ class CheckResult:
     passed: bool
     detail: str  # what was measured against what limit
 
+    @property
+    def line(self) -> str:
+        """How a refusal (and ``status``) lists it: ``grasp workspace: ...``."""
+        return f"{self.target} {self.name}: {self.detail}"
+
 
 class PreflightRefusal(PlanRefused):
     """At least one pre-flight check failed; nothing moved. ``results`` holds every check."""
 
     def __init__(self, results: list[CheckResult]) -> None:
         failed = [r for r in results if not r.passed]
-        lines = "; ".join(f"{r.target} {r.name}: {r.detail}" for r in failed)
+        lines = "; ".join(r.line for r in failed)
         super().__init__(
             f"pre-flight checks refused the pick, nothing moved ({len(failed)} of "
             f"{len(results)} checks failed): {lines}"
@@ -465,13 +470,14 @@ def ensure_ready(status: RobotStatus, T_flange_tcp: Transform, robot: RobotConfi
 def chain_checks(
     config: CellConfig,
     calibration: HandEyeCalibration,
-    T_cam_obj: Transform,
-    T_base_flange: Transform,
+    T_cam_obj: Transform | None,
+    T_base_flange: Transform | None,
 ) -> list[CheckResult]:
     """The hand-eye chain's plausibility (``plausibility.chain_problems``: an inverted or
     swapped calibration, an object out of the camera's range) as pre-flight results, target
     ``chain``; a check the config acknowledges passes and says so. ``T_base_flange`` (m) is the
-    flange at acquisition, used for eye-in-hand only."""
+    flange at acquisition, used for eye-in-hand only. Without a detection (``T_cam_obj`` None:
+    ``status``) only the camera's own checks run."""
     eye_in_hand = calibration.mode is HandEyeMode.EYE_IN_HAND
     problems = chain_problems(
         calibration,

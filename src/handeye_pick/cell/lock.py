@@ -5,7 +5,8 @@ stop the first session's control program and fail at ur_rtde's register claim wi
 about fieldbus adapters. The lock (``flock``, released by the kernel when the holder closes it
 or dies, so a killed process leaves no stale lock) lives in one folder for every user of this
 machine; the file names its holder (pid, command line, since when) for the refusal's message.
-Read-only commands (``status``, ``plan``) take no lock: they leave the controller as found.
+Read-only commands (``status``, ``plan``) take no lock: they leave the controller as found;
+``status`` asks who holds it (``holder``), since a pick cannot start while someone does.
 """
 
 from __future__ import annotations
@@ -63,6 +64,21 @@ class CellLock:
         os.ftruncate(fd, 0)
         os.pwrite(fd, json.dumps(owner).encode(), 0)
         self._fd = fd
+
+    def holder(self) -> str | None:
+        """Who holds the lock now, as ``CellInUse`` names it, or None when it is free (for
+        ``status``: a shared lock for an instant, nothing written)."""
+        try:
+            fd = os.open(self.path, os.O_RDONLY)
+        except OSError:  # no lock file (never taken here), or one this user cannot read
+            return None
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return _holder(fd)
+        finally:
+            os.close(fd)  # also releases the shared lock
+        return None
 
     def release(self) -> None:
         """Release the lock; safe to call twice."""

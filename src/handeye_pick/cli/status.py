@@ -28,10 +28,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         "is written: it is left as found, and a running session is not disturbed) and show "
         "controller version, robot and safety mode, runtime state, the program, remote control, "
         "the active TCP offset against the config, the flange pose, T_base_cam and whether the "
-        "workspace box holds the current TCP.",
+        "workspace box holds the current TCP. Not ready also while a session holds the cell, a "
+        "program runs that a pick would stop or cannot take over, or the camera chain fails a "
+        "pick's plausibility checks (the same lines as the pick's refusal).",
     )
     add_config_arg(status)
-    add_json_arg(status, "every reading, ready and the problems")
+    add_json_arg(status, "every reading, ready, the problems and the notes")
     status.set_defaults(run=run_status)
 
 
@@ -54,7 +56,7 @@ def run_status(args: argparse.Namespace) -> int:
     if args.json:
         args.report.update(status=Status.READY if state.ready else Status.NOT_READY, **report)
     else:
-        _print_status(report, state.problems)
+        _print_status(report, state.problems, state.notes)
     return ExitCode.OK if state.ready else ExitCode.REFUSED
 
 
@@ -64,10 +66,11 @@ def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
     robot_config = cell.config.robot
     robot, tcp, diff = state.robot, state.T_flange_tcp, state.tcp_offset_difference
     if robot is None:
-        return {"ready": False, "problems": state.problems}
+        return {"ready": False, "problems": state.problems, "notes": list(state.notes)}
     fields: dict[str, object] = {
         "ready": state.ready,
         "problems": state.problems,
+        "notes": list(state.notes),
         "controller_version": robot.controller_version,
         "robot_mode": mode_name(RobotMode, robot.robot_mode),
         "safety_mode": mode_name(SafetyMode, robot.safety_mode),
@@ -97,7 +100,7 @@ def _status_fields(cell: Cell, state: CellStatus) -> dict[str, object]:
     return fields
 
 
-def _print_status(report: dict[str, object], problems: list[str]) -> None:
+def _print_status(report: dict[str, object], problems: list[str], notes: tuple[str, ...]) -> None:
     lines = [f"cell {report['host']} ({report['config']})"]
     labels = (
         ("controller_version", "controller"),
@@ -126,6 +129,7 @@ def _print_status(report: dict[str, object], problems: list[str]) -> None:
     if isinstance(rows, list):
         lines.append("  T_base_cam (m)")
         lines += [f"    {show(row)}" for row in rows]
+    lines += [f"note: {note}" for note in notes]
     if problems:
         lines.append("NOT READY:")
         lines += [f"  - {problem}" for problem in problems]

@@ -12,6 +12,11 @@ ask for the TCP offset. The subset used is UR's RTDE guide, protocol version 2: 
 protocol version, set up one output recipe, start, read one data package, close. An RTDE output
 connection claims no inputs, so it is allowed next to a running session.
 
+While ur_rtde's control script runs, one more short connection asks whether a live client still
+drives it: it sets up ur_rtde's command register as an input (``I``) and closes. ``IN_USE``: a
+client holds it (a pick would be refused at connect); otherwise the register was free and the
+script is left over, and the claim lasted only until the close (nothing is ever written to it).
+
 Frames and units as in robot/port.py: ``T_base_tcp`` is ``actual_TCP_pose`` (includes the active
 TCP offset), ``T_flange_tcp`` is ``tcp_offset``, both from the same controller cycle, so
 ``T_base_flange = T_base_tcp @ inv(T_flange_tcp)`` is consistent.
@@ -19,11 +24,13 @@ TCP offset), ``T_flange_tcp`` is ``tcp_offset``, both from the same controller c
 
 from __future__ import annotations
 
+import contextlib
 import math
 import socket
 import struct
 import time
-from dataclasses import dataclass
+from collections.abc import Iterator
+from dataclasses import dataclass, replace
 
 from handeye_pick.errors import RobotConnectionError
 from handeye_pick.geometry import Transform, invert, ur_pose_to_matrix
@@ -38,10 +45,20 @@ FREQUENCY_HZ = 25.0
 """Output rate asked for: one package is read, so the first one arrives within 40 ms. Valid on
 CB3 (at most 125 Hz) and e-Series (500 Hz)."""
 
+CONTROL_SCRIPT = "rtde_control"
+"""The program name ``programState`` gives ur_rtde's control script while it runs (``PLAYING
+rtde_control``): the name of the script's top-level ``def``, as the simulator names a program
+received on the script port (docs/field-experience.md, "A control script left playing", says
+what is not known of a real controller's answer)."""
+COMMAND_REGISTER = "input_int_register_0"
+"""ur_rtde's command register (handeye-pick never uses the upper range): its control interface
+claims it, with the other input registers, for as long as it is connected."""
+
 _PROTOCOL_VERSION = 2
 _REQUEST_PROTOCOL_VERSION = ord("V")
 _GET_URCONTROL_VERSION = ord("v")
 _SETUP_OUTPUTS = ord("O")
+_SETUP_INPUTS = ord("I")
 _START = ord("S")
 _DATA_PACKAGE = ord("U")
 _HEADER = struct.Struct(">HB")  # package size including the header, package type
@@ -73,6 +90,8 @@ class ControllerReadout:
     ``T_flange_tcp`` is None when the controller does not serve ``tcp_offset`` over RTDE.
     ``dashboard_problem`` says why the dashboard could not be asked (PolyScope X has no dashboard
     server); the RTDE part is then all there is, with ``remote_control`` not applicable (True).
+    ``command_register_held``: whether a live RTDE client holds ``COMMAND_REGISTER``, asked only
+    while ur_rtde's control script runs (None otherwise).
     """
 
     status: RobotStatus
@@ -81,6 +100,7 @@ class ControllerReadout:
     program_state: str | None
     loaded_program: str | None
     dashboard_problem: str | None
+    command_register_held: bool | None = None
 
     @property
     def T_base_flange(self) -> Transform | None:
@@ -94,6 +114,13 @@ class ControllerReadout:
     def program_running(self) -> bool:
         """Whether a program runs or is paused: a pick would stop it to start its own."""
         return self.status.runtime_state != RuntimeState.STOPPED
+
+    @property
+    def control_script_running(self) -> bool:
+        """Whether the running program is ur_rtde's control script (``CONTROL_SCRIPT``), not an
+        operator's: False when the dashboard did not say."""
+        words = (self.program_state or "").split(maxsplit=1)
+        return self.program_running and words[1:] == [CONTROL_SCRIPT]
 
 
 def read_controller(host: str) -> ControllerReadout:
@@ -119,7 +146,7 @@ def read_controller(host: str) -> ControllerReadout:
         emergency_stopped=bool(bits >> _EMERGENCY_STOPPED_BIT & 1),
     )
     offset = values.get("tcp_offset")
-    return ControllerReadout(
+    readout = ControllerReadout(
         status=status,
         T_base_tcp=ur_pose_to_matrix(list(values["actual_TCP_pose"])),
         T_flange_tcp=None if offset is None else ur_pose_to_matrix(list(offset)),
@@ -127,36 +154,55 @@ def read_controller(host: str) -> ControllerReadout:
         loaded_program=loaded,
         dashboard_problem=dashboard_problem,
     )
+    if not readout.control_script_running:
+        return readout
+    return replace(readout, command_register_held=_command_register_held(host))
 
 
-def _read_rtde(host: str) -> tuple[dict[str, tuple[float, ...]], tuple[int, ...]]:
-    """The fields of one RTDE data package, by name (a scalar as a 1-tuple), and the controller
-    version (major, minor, bugfix, build)."""
+@contextlib.contextmanager
+def _rtde(host: str) -> Iterator[socket.socket]:
+    """An RTDE connection that speaks protocol version 2, closed on leaving; a socket failure or
+    a reply off the protocol is a ``RobotConnectionError`` naming the port."""
     try:
         with socket.create_connection((host, RTDE_PORT), timeout=TIMEOUT_S) as sock:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             _request(sock, _REQUEST_PROTOCOL_VERSION, struct.pack(">H", _PROTOCOL_VERSION))
             if _reply(sock, _REQUEST_PROTOCOL_VERSION)[:1] != b"\x01":
                 raise _Protocol(f"the controller refused RTDE protocol {_PROTOCOL_VERSION}")
-            _request(sock, _GET_URCONTROL_VERSION, b"")
-            version = struct.unpack(">4I", _reply(sock, _GET_URCONTROL_VERSION))
-            names = [name for name, _ in _FIELDS]
-            recipe_id, types = _setup_outputs(sock, names)
-            missing = [name for name, kind in zip(names, types, strict=True) if kind == "NOT_FOUND"]
-            if missing and set(missing) <= set(_OPTIONAL):
-                names = [name for name in names if name not in missing]
-                recipe_id, types = _setup_outputs(sock, names)
-            expected = dict(_FIELDS)
-            if recipe_id == 0 or types != [expected[name] for name in names]:
-                raise _Protocol(f"output recipe for {names} answered with types {types}")
-            _request(sock, _START, b"")
-            if _reply(sock, _START)[:1] != b"\x01":
-                raise _Protocol("the controller refused to start the RTDE output")
-            return _unpack(_reply(sock, _DATA_PACKAGE), recipe_id, names, types), version
+            yield sock
     except (OSError, _Protocol, struct.error) as exc:
         raise RobotConnectionError(
             f"cell {host}: could not read RTDE port {RTDE_PORT} ({exc or type(exc).__name__})"
         ) from exc
+
+
+def _command_register_held(host: str) -> bool:
+    """Whether another RTDE client holds ``COMMAND_REGISTER``: asked as an input recipe on a
+    connection of its own, closed at once (no start, nothing sent to the register)."""
+    with _rtde(host) as sock:
+        _request(sock, _SETUP_INPUTS, COMMAND_REGISTER.encode("ascii"))
+        return _reply(sock, _SETUP_INPUTS)[1:] == b"IN_USE"
+
+
+def _read_rtde(host: str) -> tuple[dict[str, tuple[float, ...]], tuple[int, ...]]:
+    """The fields of one RTDE data package, by name (a scalar as a 1-tuple), and the controller
+    version (major, minor, bugfix, build)."""
+    with _rtde(host) as sock:
+        _request(sock, _GET_URCONTROL_VERSION, b"")
+        version = struct.unpack(">4I", _reply(sock, _GET_URCONTROL_VERSION))
+        names = [name for name, _ in _FIELDS]
+        recipe_id, types = _setup_outputs(sock, names)
+        missing = [name for name, kind in zip(names, types, strict=True) if kind == "NOT_FOUND"]
+        if missing and set(missing) <= set(_OPTIONAL):
+            names = [name for name in names if name not in missing]
+            recipe_id, types = _setup_outputs(sock, names)
+        expected = dict(_FIELDS)
+        if recipe_id == 0 or types != [expected[name] for name in names]:
+            raise _Protocol(f"output recipe for {names} answered with types {types}")
+        _request(sock, _START, b"")
+        if _reply(sock, _START)[:1] != b"\x01":
+            raise _Protocol("the controller refused to start the RTDE output")
+        return _unpack(_reply(sock, _DATA_PACKAGE), recipe_id, names, types), version
 
 
 def _setup_outputs(sock: socket.socket, names: list[str]) -> tuple[int, list[str]]:

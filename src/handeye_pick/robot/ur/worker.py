@@ -21,7 +21,8 @@ Control there.
 Protocol: the child answers ``("hello", None)`` or ``("failure", Failure fields)``
 after connecting, then one reply per request ``(operation, args)``: ``("ok", result)`` or
 ``("failure", Failure fields)``; samples travel as ``Sample`` fields. Poses cross the pipe as UR
-vectors (m, rad) in plain lists; the parent does all frame maths.
+vectors (m, rad) in plain lists; the parent does all frame maths. ``close`` first ends the
+session's control script (``_Session.end_program``), answers what became of it, and leaves.
 """
 
 from __future__ import annotations
@@ -46,9 +47,11 @@ the arm, when this process has not written its command register for WATCHDOG_S s
 kicked eight times per window (a kick is one register write, no round trip) for as long as the
 parent's pipe is open, idle or busy, so the program stops about WATCHDOG_S after the parent dies
 or this process does (SIGKILL, a crash, a power cut)."""
-# robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING (not imported: see above).
+# robot/port.py's SafetyMode NORMAL and REDUCED, RobotMode RUNNING, RuntimeState PLAYING (not
+# imported: see above).
 SAFETY_MODES_THAT_RUN = (1, 2)
 ROBOT_MODE_RUNNING = 7
+RUNTIME_PLAYING = 2
 
 
 @dataclass(frozen=True)
@@ -254,6 +257,25 @@ class _Session:
     def stop_j(self, decel_rps2: float) -> None:
         self._control.stopJ(decel_rps2, False)
 
+    def end_program(self) -> str:
+        """End of the session: stop ur_rtde's control script, so the controller is left with no
+        program instead of this session's until its watchdog stops it (docs/ur-rtde.md, "The
+        script's loop"). Only while the script plays with no stop active: otherwise nothing is
+        sent and the reason comes back.
+
+        ``stopScript()`` writes 255 to the command register this session holds, which only
+        ur_rtde's control script reads as a command: unlike a dashboard ``stop`` it cannot end a
+        program that is not ours (a pendant program started since). It then waits up to 300 s
+        for the program to stop, which such a program never does: the parent's bound on the
+        ``close`` call (``call_timeout_s``, robot/ur/child.py) ends this process first.
+        """
+        r = self._receive
+        runtime_state, safety_mode = int(r.getRuntimeState()), int(r.getSafetyMode())
+        if runtime_state != RUNTIME_PLAYING or safety_mode not in SAFETY_MODES_THAT_RUN:
+            return f"not sent: runtime state {runtime_state}, safety mode {safety_mode}"
+        self._control.stopScript()
+        return f"sent: runtime state {int(r.getRuntimeState())} after it"
+
     def set_payload(self, mass_kg: float, cog_m: list[float]) -> bool:
         return bool(self._control.setPayload(mass_kg, cog_m))
 
@@ -312,7 +334,7 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         except (EOFError, OSError):  # parent gone: leave; the starved watchdog stops the program
             os._exit(0)
         if operation == "close":
-            _answer(conn, ("ok", None))
+            _answer(conn, ("ok", _end_program(session)))
             os._exit(0)
         try:
             if operation != "sample":
@@ -325,6 +347,17 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         except Exception as exc:
             reply = ("failure", asdict(Failure(operation, type(exc).__name__, str(exc))))
         _answer(conn, reply)
+
+
+def _end_program(session: _Session) -> str:
+    """What became of the session's control script at close (``_Session.end_program``); a
+    failure is reported, not raised: the process leaves either way, and the watchdog stops the
+    script that is left."""
+    try:
+        session.require_link()
+        return session.end_program()
+    except Exception as exc:
+        return f"not ended ({type(exc).__name__}: {exc}): the watchdog stops it"
 
 
 def _answer(conn: Connection, reply: tuple[str, object]) -> None:
