@@ -283,7 +283,7 @@ def failure_fields(exc: BaseException) -> dict[str, object]:
     if isinstance(exc, NoFeasibleCandidate):
         fields["refused"] = [{"candidate": r.candidate, "reasons": r.reasons} for r in exc.refusals]
     elif isinstance(exc, PreflightRefusal):
-        failed = [f"{r.target} {r.name}: {r.detail}" for r in exc.results if not r.passed]
+        failed = [r.line for r in exc.results if not r.passed]
         fields["refused"] = [{"candidate": 0, "reasons": failed}]
     return fields
 

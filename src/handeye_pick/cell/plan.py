@@ -319,7 +319,7 @@ class Chosen:
 
 
 def _failed(results: Sequence[CheckResult]) -> list[str]:
-    return [f"{r.target} {r.name}: {r.detail}" for r in results if not r.passed]
+    return [r.line for r in results if not r.passed]
 
 
 @dataclass(frozen=True)
