@@ -300,9 +300,11 @@ def test_the_flange_is_recorded_at_100_hz_while_the_arm_moves(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
     # Counts, not timing: the frames of each moving run against the 10 ms slots of controller
-    # time it spans. Slots that only miss by a look must not be lost: "10 ms since the last
-    # frame" kept 65-72 % of them; one frame per slot keeps 90-99 % (a busy machine's missed
-    # looks cost the rest).
+    # time it spans. One frame per slot keeps 90-99 % of the slots on an idle machine; "10 ms
+    # since the last frame" kept 65-72 %, but so does the slot rule on a machine so busy that
+    # the cell misses its looks. What tells the two apart whatever the load: only the slot rule
+    # ever puts two frames less than 10 ms apart (a late look in one slot, an early one in the
+    # next), and neither puts two in one slot.
     ctl = sim_controller(tcp_offset=TCP_OFFSET)
     record = tmp_path / "moving.mcap"
     with loop(loop_config(tmp_path, ctl.host), "--record", str(record)) as run:
@@ -314,4 +316,8 @@ def test_the_flange_is_recorded_at_100_hz_while_the_arm_moves(
     frames = sum(len(r) - 1 for r in runs)
     slots = sum((r[-1] - r[0]) * FLANGE_HZ for r in runs)
     assert slots > 200, runs  # seconds of motion, not a blip
-    assert frames >= 0.8 * slots, f"{frames} frames over {slots:.0f} slots of 10 ms"
+    assert frames <= slots + len(runs), f"{frames} frames over {slots:.0f} slots of 10 ms"
+    assert frames >= 0.5 * slots, f"{frames} frames over {slots:.0f} slots of 10 ms"
+    gaps_s = [later - earlier for r in runs for earlier, later in itertools.pairwise(r[1:])]
+    close = sum(gap < 0.0095 for gap in gaps_s)
+    assert close >= 0.1 * len(gaps_s), f"{close} of {len(gaps_s)} frames under 10 ms apart"
