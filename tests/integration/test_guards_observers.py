@@ -110,9 +110,11 @@ def test_every_step_and_every_stop_reaches_the_observers_with_its_own_poses(
         np.testing.assert_allclose(
             T_reached, ur_pose_to_matrix(pick_outcome["reached"][name]), atol=1e-9
         )
-        # A measured pose, near its target but not the target itself.
+        # A measured pose, near its target but not the target itself: within 5 mm (the
+        # simulated tracking lags more on a loaded machine: 1.2 mm seen), where the other
+        # steps' targets are 80 mm and more away.
         assert not np.array_equal(T_reached, T_target), name
-        assert np.linalg.norm(T_reached[:3, 3] - T_target[:3, 3]) < 1e-3, name
+        assert np.linalg.norm(T_reached[:3, 3] - T_target[:3, 3]) < 5e-3, name
     name, T_target, T_reached = heard.reached[3]
     assert T_target is None  # a moveJ has no TCP target
     assert np.array_equal(T_reached, home_reached)
