@@ -33,20 +33,17 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from handeye_pick.config.reader import Fields, part_size_mm, read_yaml_mapping
-from handeye_pick.errors import CalibrationError, DetectionError, TransformError
+from handeye_pick.errors import DetectionError, TransformError
 from handeye_pick.geometry import (
     Transform,
+    checked_rotvec,
     make_transform,
     rotation_from_euler,
     rotation_from_quaternion,
     rotation_from_rotvec,
     validate_rotation,
 )
-from handeye_pick.hand_eye.files import (
-    MAX_ROTVEC_RAD,
-    read_robot_pose_file,
-    robot_pose_from_ur_vector,
-)
+from handeye_pick.hand_eye.files import read_robot_pose_file, robot_pose_from_ur_vector
 
 # A point closer than 10 mm to the camera is no detection: it is metres typed as millimetres
 # (0.3 "mm" instead of 300 mm). Farther than 10 m is beyond any 3D camera used for picking.
@@ -59,7 +56,7 @@ CAPTURE_KEYS = ("flange_pose_ur", "robot_pose_file")
 # Bounds on orientation numbers, checked before any arithmetic (which overflows near 1e308).
 # Quaternion and matrix entries: far beyond any rotation's (+-1), so a near miss still gets the
 # specific message (unit norm, orthonormal). Euler angles: beyond a full turn is a wrong unit.
-# Rotation vectors longer than calibration.MAX_ROTVEC_RAD are in degrees.
+# Rotation vectors: geometry.checked_rotvec, the one reader of rotation vectors from outside.
 MAX_ROTATION_ENTRY = 1e6
 MAX_EULER_DEG = 360.0
 SYMMETRY_ORDERS = ("2", "3", "4", "6", "inf")
@@ -132,16 +129,8 @@ def _rotation(orientation: Fields) -> NDArray[np.float64]:
         )
     key = given[0]
     try:
-        if key == "rotvec_rad":
-            rotvec = orientation.vector(key, 3)
-            angle = math.hypot(*rotvec.tolist())  # no overflow at 1e308
-            if angle > MAX_ROTVEC_RAD:
-                orientation.fail(
-                    key,
-                    f"rotation vector is {angle:g} rad long, more than 2*pi: "
-                    "this key is in radians (degrees given?)",
-                )
-            return rotation_from_rotvec(rotvec)
+        if key == "rotvec_rad":  # the rotation part of the UR pose reader
+            return rotation_from_rotvec(checked_rotvec(orientation.vector(key, 3)))
         if key in ("quaternion_xyzw", "quaternion_wxyz"):
             q = _bounded(orientation, key, orientation.vector(key, 4), MAX_ROTATION_ENTRY)
             return rotation_from_quaternion(q, "xyzw" if key == "quaternion_xyzw" else "wxyz")
@@ -217,8 +206,8 @@ def _capture_pose(capture: Fields, folder: Path) -> Transform:
         capture.fail("", f"give exactly one of {', '.join(CAPTURE_KEYS)}; got {given or 'none'}")
     if given[0] == "flange_pose_ur":
         pose = capture.vector("flange_pose_ur", 6)
-        try:  # the range check of --robot-pose-ur: no overflow at 1e308, m and rad checked
-            return robot_pose_from_ur_vector(pose.tolist(), "the flange pose")
-        except CalibrationError as exc:
+        try:  # the reader of --robot-pose-ur and --capture-pose-ur: m and rad checked
+            return robot_pose_from_ur_vector(pose, "the flange pose")
+        except TransformError as exc:
             capture.fail("flange_pose_ur", str(exc))
     return read_robot_pose_file(folder / capture.string("robot_pose_file"), units="mm")

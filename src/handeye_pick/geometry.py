@@ -152,9 +152,78 @@ def _vector(values: ArrayLike, length: int, what: str) -> NDArray[np.float64]:
 
 
 def ur_pose_to_matrix(pose_m_rad: ArrayLike) -> Transform:
-    """UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad) -> 4x4 transform (m)."""
+    """UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rotation vector in rad) -> 4x4 transform (m).
+
+    For poses the controller reports. A pose from outside (a flag, a file, a request, a config
+    key) is read with ``checked_ur_pose``, which refuses the unit mix-ups first."""
     v = _vector(pose_m_rad, 6, "UR pose vector [x, y, z, rx, ry, rz]")
     return make_transform(rotation_from_rotvec(v[3:]), v[:3])
+
+
+MAX_ROTVEC_RAD = 2.0 * math.pi
+"""Longest rotation vector accepted from outside (rad): a longer one can only be degrees."""
+
+
+def checked_ur_pose(
+    pose_m_rad: ArrayLike,
+    source: str | None = None,
+    *,
+    max_m: float,
+    min_m: float = 0.0,
+    distance: str = "translation",
+) -> Transform:
+    """The one reader of a UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rad) given from outside
+    -> 4x4 transform (m).
+
+    Refused (``TransformError``, one line starting with ``source`` when given): not 6 finite
+    numbers; a translation shorter than ``min_m`` or longer than ``max_m`` (m; ``distance``
+    names it, e.g. "flange distance from the robot base"), which millimetres make (the message
+    then gives it in metres); a rotation vector longer than 2*pi (``checked_rotvec``), which
+    degrees make."""
+    v = _vector(pose_m_rad, 6, _named(source, "UR pose vector [x, y, z, rx, ry, rz]"))
+    length_m = math.hypot(*v[:3].tolist())  # no overflow (and no numpy warning) at 1e308
+    if not min_m <= length_m <= max_m:
+        expected = f"{min_m:g} to {max_m:g} m" if min_m > 0.0 else f"at most {max_m:g} m"
+        as_m = ""
+        if length_m > max_m and min_m <= length_m / 1000.0 <= max_m:  # read as mm, it fits
+            as_m = f": millimetres given? it must be in metres: {_shown(v[:3])} mm is "
+            as_m += f"{_shown(v[:3] / 1000.0)} m"
+        raise TransformError(
+            _named(
+                source,
+                f"{distance} is {length_m:.6g} m long, expected {expected} (UR vectors are in "
+                f"m){as_m}",
+            )
+        )
+    return make_transform(rotation_from_rotvec(checked_rotvec(v[3:], source)), v[:3])
+
+
+def checked_rotvec(rotvec_rad: ArrayLike, source: str | None = None) -> NDArray[np.float64]:
+    """A rotation vector (axis times angle, rad) given from outside, as 3 floats; refused
+    (``TransformError``) when it is longer than ``MAX_ROTVEC_RAD``: no turn needs more than a
+    full one, and degrees typed for radians (127.3 for 2.2218) make every real one longer."""
+    v = _vector(rotvec_rad, 3, _named(source, "rotation vector"))
+    angle = math.hypot(*v.tolist())  # no overflow (and no numpy warning) at 1e308
+    if angle > MAX_ROTVEC_RAD:
+        as_rad = ""
+        if math.radians(angle) <= MAX_ROTVEC_RAD:  # read as degrees, it is a rotation
+            as_rad = f": {_shown(v)} deg is {_shown(np.radians(v))} rad"
+        raise TransformError(
+            _named(
+                source,
+                f"rotation vector is {angle:.6g} rad long, more than 2*pi (degrees given? "
+                f"it must be in rad{as_rad})",
+            )
+        )
+    return v
+
+
+def _named(source: str | None, message: str) -> str:
+    return message if source is None else f"{source}: {message}"
+
+
+def _shown(values: NDArray[np.float64]) -> str:
+    return "[" + ", ".join(f"{float(v):.5g}" for v in values) + "]"
 
 
 def matrix_to_ur_pose(T: Transform) -> NDArray[np.float64]:

@@ -61,14 +61,15 @@ class CheckResult:
 
 
 class PreflightRefusal(PlanRefused):
-    """At least one pre-flight check failed; nothing moved. ``results`` holds every check."""
+    """At least one pre-flight check failed; nothing moved. ``results`` holds every check;
+    ``note``, when given, ends the message (e.g. which flange pose the targets came from)."""
 
-    def __init__(self, results: list[CheckResult]) -> None:
+    def __init__(self, results: list[CheckResult], note: str = "") -> None:
         failed = [r for r in results if not r.passed]
         lines = "; ".join(r.line for r in failed)
         super().__init__(
             f"pre-flight checks refused the pick, nothing moved ({len(failed)} of "
-            f"{len(results)} checks failed): {lines}"
+            f"{len(results)} checks failed): {lines}{'; ' + note if note else ''}"
         )
         self.results = results
 

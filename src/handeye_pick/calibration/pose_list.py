@@ -21,11 +21,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
-from handeye_pick.config.poses import NAMED_POSE_KEYS, named_pose
+from handeye_pick.config.poses import NAMED_POSE_KEYS, named_pose, pose_vector
 from handeye_pick.config.reader import Fields, read_yaml_mapping
-from handeye_pick.config.schema import NamedPose
+from handeye_pick.config.schema import MAX_TCP_OFFSET_M, NamedPose
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
+from handeye_pick.geometry import Transform, ur_pose_list
 
 
 @dataclass(frozen=True)
@@ -65,7 +65,9 @@ def read_pose_list(path: Path) -> PoseList:
         named_pose(entries.section(str(i), NAMED_POSE_KEYS), pose_name(i))
         for i in range(len(listed))
     )
-    T_flange_tcp = ur_pose_to_matrix(top.vector("tcp_offset", 6)) if top.has("tcp_offset") else None
+    T_flange_tcp = (
+        pose_vector(top, "tcp_offset", MAX_TCP_OFFSET_M) if top.has("tcp_offset") else None
+    )
     return PoseList(Path(path), poses, T_flange_tcp)
 
 

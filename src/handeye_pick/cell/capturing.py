@@ -9,8 +9,12 @@ from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.moves import move_to_capture
 from handeye_pick.cell.state import CellState
 from handeye_pick.errors import ConfigError, InputError
-from handeye_pick.geometry import Transform
+from handeye_pick.geometry import Transform, ur_pose_list
 from handeye_pick.hand_eye.files import HandEyeMode
+
+LIVE = "live"
+"""The source of a flange pose read at pick time because none was given (audit records:
+``flange_pose_source``)."""
 
 
 def capture(state: CellState, pose: str | None, request_id: str | None) -> Capture:
@@ -75,7 +79,22 @@ def live_capture(state: CellState) -> Capture:
     if state.calibration.mode is HandEyeMode.EYE_TO_HAND:
         return _register(state, None, "none (eye-to-hand)")
     T_base_flange = state.link.arm.steady_flange_pose(state.config.capture.steady_timeout_s)
-    return _register(state, T_base_flange, "live")
+    return _register(state, T_base_flange, LIVE)
+
+
+def live_pose_note(capture: Capture) -> str:
+    """What a refusal of a pick's targets adds when they were chained from the flange pose read
+    live at pick time (``live_capture``; empty otherwise): that pose is where the arm stands
+    now, not where the image was taken, and how to give the pose the image was taken at."""
+    if capture.source != LIVE or capture.T_base_flange is None:
+        return ""
+    pose = ", ".join(f"{v:.4f}" for v in ur_pose_list(capture.T_base_flange))
+    return (
+        f"the targets were chained from the live flange pose [{pose}] (m, rad), where the arm "
+        "stands now, not where the image was taken if the arm has moved since: give the flange "
+        "pose at image acquisition as the detection file's capture.flange_pose_ur (m, rad) or "
+        "with --capture-pose-ur X Y Z RX RY RZ"
+    )
 
 
 def _register(state: CellState, T_base_flange: Transform | None, source: str) -> Capture:

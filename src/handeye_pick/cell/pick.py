@@ -13,7 +13,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
 from handeye_pick.cell.captures import Capture
-from handeye_pick.cell.capturing import live_capture
+from handeye_pick.cell.capturing import live_capture, live_pose_note
 from handeye_pick.cell.operation import Planned, run_operation
 from handeye_pick.cell.plan import (
     PLACE,
@@ -123,6 +123,9 @@ def _prepare(
         if pick.on_plan is not None:
             pick.on_plan(plan)
 
+    # A refusal of targets chained from the live pose says so, and how to give the capture pose
+    # (a touch test has no capture pose to give: it touches what the camera sees now).
+    note = live_pose_note(capture) if pick.touch is None else ""
     try:
         chosen, pick.refused = choose(
             config,
@@ -141,10 +144,10 @@ def _prepare(
     except PreflightRefusal as refusal:  # one candidate, refused
         refused = CandidateRefusal.of(0, pick.detections[0].source, refusal.results)
         state.tell_candidates(plans, None, [refused])
-        raise
+        raise PreflightRefusal(refusal.results, note) from None
     except NoFeasibleCandidate as none:
         state.tell_candidates(plans, None, none.refusals)
-        raise
+        raise NoFeasibleCandidate(none.refusals, note) from None
     state.tell_candidates(plans, chosen.index, pick.refused)
     pick.chosen = chosen
     gripper = state.link.gripper

@@ -258,13 +258,16 @@ class CandidateRefusal:
 
 
 class NoFeasibleCandidate(PlanRefused):
-    """No candidate passed every pre-flight check; nothing moved. ``refusals`` says why each."""
+    """No candidate passed every pre-flight check; nothing moved. ``refusals`` says why each;
+    ``note`` as for ``PreflightRefusal``."""
 
-    def __init__(self, refusals: list[CandidateRefusal]) -> None:
+    def __init__(self, refusals: list[CandidateRefusal], note: str = "") -> None:
         reasons = "; ".join(
             f"candidate {r.candidate} ({r.source}): {'; '.join(r.reasons)}" for r in refusals
         )
-        super().__init__(f"no candidate can be picked, nothing moved: {reasons}")
+        super().__init__(
+            f"no candidate can be picked, nothing moved: {reasons}{'; ' + note if note else ''}"
+        )
         self.refusals = refusals
 
 

@@ -14,8 +14,8 @@ from typing import TYPE_CHECKING
 from handeye_pick.cli.common import accept_negative_exponents, camera_point_mm_from_args
 from handeye_pick.detection import Detection, detection_from_point_mm, load_detection
 from handeye_pick.errors import InputError
-from handeye_pick.geometry import Transform, ur_pose_list, ur_pose_to_matrix
-from handeye_pick.hand_eye.files import read_robot_pose_file
+from handeye_pick.geometry import Transform, ur_pose_list
+from handeye_pick.hand_eye.files import read_robot_pose_file, robot_pose_from_ur_vector
 from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
@@ -132,7 +132,8 @@ def capture_pose_from_args(
     if args.capture_pose is not None:
         flag = read_robot_pose_file(args.capture_pose, units="mm"), str(args.capture_pose)
     elif args.capture_pose_ur is not None:
-        flag = ur_pose_to_matrix(args.capture_pose_ur), "--capture-pose-ur"
+        source = "--capture-pose-ur"
+        flag = robot_pose_from_ur_vector(args.capture_pose_ur, source), source
     if flag is not None and detection.T_base_flange_at_capture is not None:
         raise InputError(
             f"{detection.source} carries its capture pose already: drop --capture-pose/"

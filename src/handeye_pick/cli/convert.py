@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import math
 
 import numpy as np
 from numpy.typing import NDArray
@@ -15,13 +16,13 @@ from handeye_pick.errors import InputError
 from handeye_pick.geometry import (
     AngleUnit,
     Transform,
+    checked_ur_pose,
     make_transform,
     matrix_to_ur_pose,
     rotation_from_euler,
     rotation_from_quaternion,
     rotation_to_euler,
     rotation_to_quaternion,
-    ur_pose_to_matrix,
     validate_transform,
 )
 
@@ -90,8 +91,8 @@ def run_convert(args: argparse.Namespace) -> int:
 def _to_matrix(
     fmt: str, v: NDArray[np.float64], sequence: str | None, angle_unit: AngleUnit | None
 ) -> Transform:
-    if fmt == "ur":
-        return ur_pose_to_matrix(v)
+    if fmt == "ur":  # the translation in any unit: only the rotation vector is checked
+        return checked_ur_pose(v, "convert --from ur", max_m=math.inf)
     if fmt == "matrix":
         return validate_transform(v.reshape(4, 4), "convert --from matrix")
     if fmt == "quat-xyzw":

@@ -21,9 +21,15 @@ from numpy.typing import NDArray
 from handeye_pick.cli.cell import add_config_arg, progress_from_args
 from handeye_pick.cli.common import accept_negative_exponents
 from handeye_pick.cli.json_report import add_json_arg
+from handeye_pick.config.schema import MAX_TCP_OFFSET_M
 from handeye_pick.errors import InputError, SafetyRefusal
-from handeye_pick.geometry import Transform, rotation_angle_between, ur_pose_list, ur_pose_to_matrix
-from handeye_pick.hand_eye.files import HandEyeMode
+from handeye_pick.geometry import Transform, checked_ur_pose, rotation_angle_between, ur_pose_list
+from handeye_pick.hand_eye.files import (
+    EYE_IN_HAND_RANGE,
+    EYE_TO_HAND_RANGE,
+    HandEyeCalibration,
+    HandEyeMode,
+)
 
 if TYPE_CHECKING:  # the cell's machinery loads when a command runs, not for --help
     from handeye_pick.cell.session import Cell
@@ -101,14 +107,14 @@ def run_poses(args: argparse.Namespace) -> int:
     cell = Cell(args.config, progress=progress_from_args(args))
     args.report.audit_from(cell)  # a failed connect is audited
     mode = cell.calibration.mode
-    _check_mode_flags(args, mode)
+    T_flange_obj = _mode_flags(args, mode)
     look_at_m = np.array(args.look_at, dtype=np.float64) / 1000.0
-    T_mount = ur_pose_to_matrix(args.mount) if args.mount is not None else cell.calibration.T_cal
+    T_mount = _mount(args, cell.calibration)
     T_flange_tcp = cell.config.robot.T_flange_tcp
     with cell:
         _require_ready(cell)
         with cell.progress.step("asking the controller about candidate poses"):
-            flanges = _propose(cell, args, mode, look_at_m, T_mount, T_flange_tcp)
+            flanges = _propose(cell, args, look_at_m, T_mount, T_flange_obj, T_flange_tcp)
     targets = [T @ T_flange_tcp for T in flanges]
     look_at = " ".join(f"{v:g}" for v in args.look_at)
     aim = (
@@ -148,8 +154,9 @@ def run_poses(args: argparse.Namespace) -> int:
     return 0
 
 
-def _check_mode_flags(args: argparse.Namespace, mode: HandEyeMode) -> None:
-    """The flags each mode needs and refuses (nothing given is silently ignored)."""
+def _mode_flags(args: argparse.Namespace, mode: HandEyeMode) -> Transform | None:
+    """The flags each mode needs and refuses (nothing given is silently ignored); eye-to-hand,
+    the board's mount on the flange ``T_flange_obj`` (m), None eye-in-hand."""
     if mode is HandEyeMode.EYE_IN_HAND:
         if args.distance_mm is None:
             raise InputError("poses: eye-in-hand needs --distance-mm (camera to board centre)")
@@ -158,7 +165,7 @@ def _check_mode_flags(args: argparse.Namespace, mode: HandEyeMode) -> None:
                 "poses: --board-mount is for eye-to-hand (the board on the flange); an "
                 "eye-in-hand board lies in the cell at --look-at"
             )
-        return
+        return None
     if args.distance_mm is not None:
         raise InputError(
             "poses: eye-to-hand takes the board's distance from the camera's mount to --look-at; "
@@ -169,6 +176,21 @@ def _check_mode_flags(args: argparse.Namespace, mode: HandEyeMode) -> None:
             "poses: eye-to-hand needs --board-mount X Y Z RX RY RZ, the board's rough pose on "
             "the flange (m, rad)"
         )
+    return checked_ur_pose(
+        args.board_mount,
+        "--board-mount",
+        max_m=MAX_TCP_OFFSET_M,
+        distance="board distance from the flange",
+    )
+
+
+def _mount(args: argparse.Namespace, calibration: HandEyeCalibration) -> Transform:
+    """The camera's rough mount (m): ``--mount`` (``T_flange_cam`` eye-in-hand, ``T_base_cam``
+    eye-to-hand, checked like the hand-eye file of that mode) or the cell's hand-eye file."""
+    if args.mount is None:
+        return calibration.T_cal
+    reach = EYE_IN_HAND_RANGE if calibration.mode is HandEyeMode.EYE_IN_HAND else EYE_TO_HAND_RANGE
+    return reach.ur_pose(args.mount, "--mount")
 
 
 def _require_ready(cell: Cell) -> None:
@@ -184,21 +206,21 @@ def _require_ready(cell: Cell) -> None:
 def _propose(
     cell: Cell,
     args: argparse.Namespace,
-    mode: HandEyeMode,
     look_at_m: NDArray[np.float64],
     T_mount: Transform,
+    T_flange_obj: Transform | None,
     T_flange_tcp: Transform,
 ) -> list[Transform]:
-    """Flange poses from the mode's proposal, each checked on the cell (as its TCP target)."""
+    """Flange poses from the mode's proposal (eye-to-hand when the board's mount
+    ``T_flange_obj`` is given), each checked on the cell (as its TCP target)."""
     from handeye_pick.calibration.poses_eye_in_hand import propose_poses
     from handeye_pick.calibration.poses_eye_to_hand import propose_board_poses
 
     def feasible(T_base_flange: Transform) -> bool:
         return not cell.check_pose(T_base_flange @ T_flange_tcp)
 
-    if mode is HandEyeMode.EYE_IN_HAND:
+    if T_flange_obj is None:
         return propose_poses(look_at_m, args.distance_mm / 1000.0, args.count, T_mount, feasible)
-    T_flange_obj = ur_pose_to_matrix(args.board_mount)
     return propose_board_poses(look_at_m, args.count, T_mount, T_flange_obj, feasible)
 
 

@@ -7,7 +7,6 @@ standoffs are millimetres along the tool z. Each is checked for a unit mix-up.
 
 from __future__ import annotations
 
-import math
 from dataclasses import replace
 
 import numpy as np
@@ -24,9 +23,8 @@ from handeye_pick.config.schema import (
     NamedPose,
     PlaceConfig,
 )
-from handeye_pick.errors import ConfigError
-from handeye_pick.geometry import Transform, ur_pose_to_matrix
-from handeye_pick.hand_eye.files import MAX_ROTVEC_RAD
+from handeye_pick.errors import ConfigError, TransformError
+from handeye_pick.geometry import Transform, checked_ur_pose
 
 NAMED_POSE_KEYS = ("joints_rad", "tcp_pose")  # a named pose: one of the two
 
@@ -48,23 +46,14 @@ _CAPTURE_NUMBERS = {
 
 
 def pose_vector(fields: Fields, key: str, max_translation_m: float) -> Transform:
-    """A UR pose vector [x, y, z, rx, ry, rz] in m and rad, checked for unit mix-ups."""
+    """A UR pose vector [x, y, z, rx, ry, rz] in m and rad at ``key``, read with
+    ``geometry.checked_ur_pose`` (no longer than ``max_translation_m``, no rotation vector in
+    degrees); errors name the file and the key."""
     pose = fields.vector(key, 6)
-    distance = math.hypot(*pose[:3].tolist())  # no overflow (and no numpy warning) at 1e308
-    if distance > max_translation_m:
-        fields.fail(
-            key,
-            f"translation is {distance:g} m long, more than {max_translation_m:g} m: "
-            "this key is in metres (millimetres given?)",
-        )
-    angle = math.hypot(*pose[3:].tolist())
-    if angle > MAX_ROTVEC_RAD:
-        fields.fail(
-            key,
-            f"rotation vector is {angle:g} rad long, more than 2*pi: "
-            "this key is in radians (degrees given?)",
-        )
-    return ur_pose_to_matrix(pose)
+    try:
+        return checked_ur_pose(pose, max_m=max_translation_m)
+    except TransformError as exc:
+        fields.fail(key, str(exc))
 
 
 def read_poses(top: Fields) -> tuple[NamedPose, ...]:

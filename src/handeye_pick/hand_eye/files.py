@@ -26,7 +26,7 @@ import functools
 import hashlib
 import math
 import re
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
@@ -34,15 +34,16 @@ from typing import Any
 
 import numpy as np
 import yaml
+from numpy.typing import ArrayLike
 
 from handeye_pick.errors import CalibrationError
 from handeye_pick.geometry import (
     LengthUnit,
     Transform,
+    checked_ur_pose,
     compose,
     metres_per,
     scale_translation,
-    ur_pose_to_matrix,
     validate_transform,
 )
 from handeye_pick.geometry import invert as invert_transform
@@ -101,6 +102,13 @@ class _DistanceRange:
     high_m: float
     what: str
 
+    def ur_pose(self, pose_m_rad: ArrayLike, source: str) -> Transform:
+        """A UR pose vector (m, rad) from outside whose translation lies in this range, read with
+        ``geometry.checked_ur_pose`` (``TransformError`` naming ``source``)."""
+        return checked_ur_pose(
+            pose_m_rad, source, min_m=self.low_m, max_m=self.high_m, distance=self.what
+        )
+
 
 # A camera bolted to the flange sits a few cm to a few dozen cm from it: beyond 2 m or within
 # 1 mm the file is in the other unit.
@@ -120,8 +128,6 @@ _RANGES = {HandEyeMode.EYE_IN_HAND: EYE_IN_HAND_RANGE, HandEyeMode.EYE_TO_HAND: 
 # No entry of a camera or robot transform comes near this, even in mm (1 km); a larger one is a
 # broken or hostile file, refused before any arithmetic on it can overflow.
 MAX_ENTRY = 1e6
-# A rotation vector longer than a full turn is in degrees.
-MAX_ROTVEC_RAD = 2.0 * math.pi
 
 
 @dataclass(frozen=True, eq=False)
@@ -228,25 +234,11 @@ def read_object_pose_file(path: Path, units: LengthUnit, flag: str) -> Transform
     return T_cam_obj
 
 
-def robot_pose_from_ur_vector(pose_m_rad: Sequence[float], source: str) -> Transform:
-    """``T_base_flange`` (metres) from a UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rad) typed
-    by a user (``source`` names where, e.g. ``--robot-pose-ur``), with the range check of a pose
-    file: the flange 1 cm to 3 m from the base, a rotation vector at most 2*pi long."""
-    if len(pose_m_rad) != 6:
-        raise CalibrationError(f"{source}: expected 6 numbers, got {len(pose_m_rad)}")
-    distance_m = math.hypot(*pose_m_rad[:3])  # no overflow (and no numpy warning) at 1e308
-    if not ROBOT_POSE_RANGE.low_m <= distance_m <= ROBOT_POSE_RANGE.high_m:
-        raise CalibrationError(
-            f"{source}: {ROBOT_POSE_RANGE.what} is {distance_m:.6g} m, expected "
-            f"{ROBOT_POSE_RANGE.low_m:g} to {ROBOT_POSE_RANGE.high_m:g} m (UR vectors are in m)"
-        )
-    angle = math.hypot(*pose_m_rad[3:])
-    if angle > MAX_ROTVEC_RAD:
-        raise CalibrationError(
-            f"{source}: rotation vector is {angle:.6g} rad long, more than 2*pi "
-            "(UR vectors are in rad; degrees given?)"
-        )
-    return ur_pose_to_matrix(pose_m_rad)
+def robot_pose_from_ur_vector(pose_m_rad: ArrayLike, source: str) -> Transform:
+    """``T_base_flange`` (metres) from a UR pose vector ``[x, y, z, rx, ry, rz]`` (m, rad) given
+    from outside (``source`` names where, e.g. ``--robot-pose-ur``), with the range check of a
+    pose file: the flange 1 cm to 3 m from the base, a rotation vector at most 2*pi long."""
+    return ROBOT_POSE_RANGE.ur_pose(pose_m_rad, source)
 
 
 def read_transform_file(path: Path, units: LengthUnit) -> Transform:
