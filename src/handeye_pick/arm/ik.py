@@ -20,9 +20,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from handeye_pick.arm.kinematics import dh_transforms
+from handeye_pick.arm.kinematics import dh_rows
 from handeye_pick.arm.models import ArmModel
 
+ROUND_OFF = 1e-9
+"""How far (m^2 for the shoulder's test, unitless for the elbow's cosine) a pose may lie beyond
+a branch's reach and count as on its edge: round-off of an arm stretched or on the singular
+cylinder."""
 BRANCHES = 8
 """Branch ``b``: shoulder sign ``b // 4``, wrist sign ``b // 2 % 2``, elbow sign ``b % 2``
 (0: +, 1: -)."""
@@ -63,7 +67,7 @@ def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
     # holds joint 2's axis.
     centre = p - d6 * R[:, :, 2]
     radius_sq = centre[:, 0] ** 2 + centre[:, 1] ** 2
-    along = np.sqrt(np.where(radius_sq >= d4 * d4, radius_sq - d4 * d4, np.nan))
+    along = np.sqrt(_within(radius_sq - d4 * d4, 0.0, np.inf))
     phi = np.arctan2(centre[:, 1], centre[:, 0])
     side = np.array([1.0, -1.0])
     q1 = phi[:, None] + np.arctan2(d4, side[None, :] * along[:, None])  # (N, 2)
@@ -82,11 +86,12 @@ def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
     q[..., 0] = q1[:, :, None]
     q[..., 4] = q5
     q[..., 5] = q6
-    A = dh_transforms(model, q.reshape(-1, 6)).reshape(n, 2, 2, 6, 4, 4)
+    A = dh_rows(model, q)  # (N, 2, 2, 6, 4, 4)
     T_1_4 = _invert(A[..., 0, :, :]) @ T[:, None, None] @ _invert(A[..., 4, :, :] @ A[..., 5, :, :])
     x, y = T_1_4[..., 0, 3], T_1_4[..., 1, 3]
     c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
-    s3_abs = np.sqrt(np.where(np.abs(c3) <= 1.0, 1.0 - c3 * c3, np.nan))  # (N, 2, 2)
+    c3 = _within(c3, -1.0, 1.0)
+    s3_abs = np.sqrt(1.0 - c3 * c3)  # (N, 2, 2)
     s3 = side * s3_abs[..., None]  # (N, 2, 2, 2): the elbow's sign last
     q3 = np.arctan2(s3, c3[..., None])
     q2 = np.arctan2(y, x)[..., None] - np.arctan2(a3 * s3, a2 + a3 * c3[..., None])
@@ -104,6 +109,15 @@ def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
         wrist=s5_abs,
         elbow=s3_abs.reshape(n, 4),
     )
+
+
+def _within(values: NDArray[np.float64], low: float, high: float) -> NDArray[np.float64]:
+    """``values`` clipped to [low, high] where they lie outside by round-off only (``ROUND_OFF``),
+    NaN where they lie farther out: a stretched arm or a wrist on the singular cylinder still
+    solves, a pose out of reach does not."""
+    clipped = np.clip(values, low, high)
+    result: NDArray[np.float64] = np.where(np.abs(values - clipped) <= ROUND_OFF, clipped, np.nan)
+    return result
 
 
 def wrap(angles: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -37,7 +37,12 @@ def joint_batch(Q: ArrayLike) -> Joints:
 def dh_transforms(model: ArmModel, Q: ArrayLike) -> NDArray[np.float64]:
     """Each DH row's transform, frame ``i - 1`` to frame ``i``, for every joint vector:
     (N, 6, 4, 4). Standard DH: Rz(q) Tz(d) Tx(a) Rx(alpha)."""
-    q = joint_batch(Q)
+    return dh_rows(model, joint_batch(Q))
+
+
+def dh_rows(model: ArmModel, q: Joints) -> NDArray[np.float64]:
+    """``dh_transforms`` of joint angles (..., 6) as they are: a NaN angle (a branch that does
+    not reach) gives NaN transforms."""
     c, s = np.cos(q), np.sin(q)
     ca, sa = _COS_ALPHA, _SIN_ALPHA
     a, d = np.asarray(model.a), np.asarray(model.d)

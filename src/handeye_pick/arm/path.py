@@ -176,7 +176,6 @@ def _first_problem(
         if hits.size:
             found.append((int(hits[0]), reason))
 
-    first(np.isnan(q).any(axis=1), f"the {model.name} cannot reach the path there")
     first(
         solved.shoulder_m < SHOULDER_SINGULAR_M,
         "the wrist passes near joint 1's axis (the shoulder singularity)",
@@ -201,6 +200,7 @@ def _first_problem(
                 f"(at most {_degrees(MAX_JOINT_STEP_RAD)}): a singularity is near",
             )
         )
+    first(np.isnan(q).any(axis=1), f"the {model.name} cannot reach the path there")
     if not found:
         reached = tcp_poses(model, q, T_flange_tcp)
         off_m = np.linalg.norm(reached[:, :3, 3] - T_base_tcp[:, :3, 3], axis=1)
@@ -211,7 +211,8 @@ def _first_problem(
             (off_m > FOLLOW_TOLERANCE_M) | (off_rad > FOLLOW_TOLERANCE_RAD),
             "the joints found miss the TCP path by more than 0.01 mm (a defect: report it)",
         )
-    return min(found) if found else None
+    # The earliest look; at one look, a singularity before the reach it spoils.
+    return min(found, key=lambda problem: problem[0]) if found else None
 
 
 def follow_all(
