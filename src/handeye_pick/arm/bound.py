@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from handeye_pick.arm.kinematics import frames, joint_batch
+from handeye_pick.arm.kinematics import frames, joint_batch, solids_on
 from handeye_pick.arm.models import ArmModel
 
 
@@ -26,7 +26,7 @@ def axis_distances(model: ArmModel, Q: ArrayLike) -> NDArray[np.float64]:
     frame). A capsule's or cylinder's points lie within its radius of its axis segment, and a
     segment is farthest from a line at one of its ends."""
     F = frames(model, Q)
-    solids = F[:, model.solid_frames] @ model.solid_transforms  # (N, L, 4, 4)
+    solids = solids_on(model, F)  # (N, L, 4, 4)
     half = np.array([link.length_m / 2.0 for link in model.links])
     radius = np.array([link.radius_m for link in model.links])
     centre, along = solids[..., :3, 3], solids[..., :3, 2]

@@ -92,6 +92,14 @@ def tcp_poses(model: ArmModel, Q: ArrayLike, T_flange_tcp: Transform) -> NDArray
 def link_poses(model: ArmModel, Q: ArrayLike) -> NDArray[np.float64]:
     """``T_base_solid`` of every link solid (``model.links`` order) for every joint vector:
     (N, L, 4, 4), each the solid's centre and axes (its axis along z)."""
-    F = frames(model, Q)
-    result: NDArray[np.float64] = F[:, model.solid_frames] @ model.solid_transforms
-    return result
+    return solids_on(model, frames(model, Q))
+
+
+def solids_on(model: ArmModel, F: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``link_poses`` from the frames ``F`` (N, 7, 4, 4) ``frames`` gives."""
+    n = F.shape[0]
+    out = np.empty((n, len(model.links), 4, 4))
+    for index, link in enumerate(model.links):
+        # (N, 4, 4) @ (4, 4) as one (4N, 4) @ (4, 4) product
+        out[:, index] = (F[:, link.frame].reshape(4 * n, 4) @ link.T_frame_solid).reshape(n, 4, 4)
+    return out

@@ -70,11 +70,6 @@ class ArmModel:
         return self.name not in CB3_NAMES
 
     @cached_property
-    def solid_transforms(self) -> NDArray[np.float64]:
-        """``T_frame_solid`` of every link, stacked (L, 4, 4)."""
-        return np.stack([link.T_frame_solid for link in self.links])
-
-    @cached_property
     def solid_frames(self) -> NDArray[np.intp]:
         """The DH frame every link rides, (L,)."""
         return np.array([link.frame for link in self.links], dtype=np.intp)
