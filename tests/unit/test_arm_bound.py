@@ -1,6 +1,6 @@
 """The motion bound of the link solids (arm/bound.py): no sampled point of any link, inside or
-on its surface, moves farther along a joint step than the bound says, and the bound is not
-loose by more than the step's second-order term."""
+on its surface, travels farther along a joint step than the bound says; joints that do not carry
+a link do not count, and a lone joint's turn is bounded by its distances exactly."""
 
 from __future__ import annotations
 
