@@ -109,10 +109,16 @@ def test_a_model_whose_tcp_disagrees_with_the_controller_is_refused(
     assert "get robot model" not in _asked(ctl)  # PolyScope 5.4 has no such command
 
 
-def test_without_robot_model_the_controller_is_not_asked(
+def test_the_dashboard_is_asked_only_when_robot_model_is_set(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
     ctl = sim_controller(model="ur10e", tcp_offset=TCP_OFFSET, instant=True)
-    status, report = run_json(_config(tmp_path, ctl, None), *_below_the_camera(ctl), "--dry-run")
-    assert status == 0, report
-    assert "get robot model" not in _asked(ctl)
+    asked = []
+    for model in ("ur10e", None):
+        folder = tmp_path / str(model)
+        folder.mkdir()
+        status, report = run_json(_config(folder, ctl, model), *_below_the_camera(ctl),
+                                  "--dry-run")
+        assert status == 0, report
+        asked.append(_asked(ctl).count("get robot model"))
+    assert asked == [1, 1]  # the second session, without robot.model, asked nothing more
