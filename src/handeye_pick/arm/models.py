@@ -45,14 +45,6 @@ class LinkSolid:
     length_m: float
     T_frame_solid: Transform
 
-    @property
-    def reach_m(self) -> float:
-        """The farthest point of the solid from its centre (m)."""
-        half = self.length_m / 2.0
-        if self.kind == "capsule":
-            return half + self.radius_m
-        return math.hypot(half, self.radius_m)
-
 
 @dataclass(frozen=True)
 class ArmModel:
