@@ -58,6 +58,7 @@ place:
   approach_mm: 250
   retreat_mm: 250
 scene:
+  arm: unchecked
   clearance_mm: 5
   floor_z_mm: 0
   bins:

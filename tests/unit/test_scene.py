@@ -66,6 +66,7 @@ CAMERA = """
 """
 SCENE = """
 scene:
+  arm: unchecked
   clearance_mm: 5
   floor_z_mm: 0
   bins:

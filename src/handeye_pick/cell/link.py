@@ -11,6 +11,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable
 
+from handeye_pick.arm.agree import check_tcp_agrees
 from handeye_pick.audit import AuditLog, open_audit
 from handeye_pick.cell.lock import CellLock
 from handeye_pick.cell.records import append_failure
@@ -37,6 +38,7 @@ def connect_ur_rtde(config: CellConfig, on_sample: SampleListener | None = None)
         stop_decel_mps2=config.motion.stop_decel_mps2,
         watchdog_s=config.robot.watchdog_s,
         on_sample=on_sample,
+        model=config.robot.model,
     )
 
 
@@ -71,7 +73,8 @@ class Link:
             self._audit.on_append = self._on_audit
 
     def connect_robot(self, audit: AuditLog, request_id: str | None) -> None:
-        """The robot session and the gripper; a failure is audited in ``audit`` (step
+        """The robot session (with ``robot.model``: refused when the model's TCP disagrees with the
+        controller's, ``arm/agree.py``) and the gripper; a failure is audited in ``audit`` (step
         ``connect``), everything opened so far is closed, and the error raised."""
         outcome: dict[str, object] = {"event": "outcome", "step": "connect", "reached": {}}
         if request_id is not None:
@@ -80,6 +83,10 @@ class Link:
             with self._progress.step(f"connecting to {self._config.robot.host}"):
                 self._arm = self._connect_arm(self._config)
                 robot = self._config.robot
+                if robot.model is not None:
+                    T_base_tcp = self._arm.tcp_pose()
+                    q = self._arm.joint_positions()  # the same sample or a newer one
+                    check_tcp_agrees(robot.model, q, T_base_tcp, robot.T_flange_tcp, robot.host)
                 self.gripper = connect_gripper(
                     robot.gripper, robot.host, self._arm, self._progress.say
                 )

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from handeye_pick.arm.models import MODEL_NAMES
 from handeye_pick.config.gripper import Robotiq2FConfig
 from handeye_pick.config.hand_eye import read_hand_eye
 from handeye_pick.config.motion import read_motion, read_workspace
@@ -85,6 +86,13 @@ def load_config(path: Path) -> CellConfig:
             "scene" if scene is None else "tool",
             "the collision check needs both scene (what to keep clear of) and tool.shape "
             "(what moves): give both, or neither",
+        )
+    if scene is not None and scene.arm_checked and robot.model is None:
+        top.fail(
+            "robot.model",
+            "missing: a scene checks the arm's links as well as the tool; add robot.model (the "
+            f"arm on the controller: {', '.join(MODEL_NAMES)}), or scene.arm: unchecked to check "
+            "the tool alone",
         )
     return CellConfig(
         robot=robot,

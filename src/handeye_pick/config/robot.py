@@ -1,8 +1,10 @@
 """The ``robot`` section: the controller's address, the TCP offset the pendant must have, the
-watchdog, the gripper (``config/gripper.py``) and the empty tool's payload (``payload.py``)."""
+watchdog, the gripper (``config/gripper.py``), the empty tool's payload (``payload.py``) and the
+arm's model (``arm.py``)."""
 
 from __future__ import annotations
 
+from handeye_pick.config.arm import read_arm_model
 from handeye_pick.config.gripper import read_gripper
 from handeye_pick.config.payload import read_tool_payload
 from handeye_pick.config.poses import pose_vector
@@ -18,7 +20,7 @@ _NUMBERS = {
     ),
     "watchdog_s": Number("s", minimum=0.05, maximum=2.0, default=RobotConfig.watchdog_s),
 }
-_KEYS = ("host", "tcp_offset", "gripper", "tool_payload", *_NUMBERS)
+_KEYS = ("host", "tcp_offset", "gripper", "tool_payload", "model", "links", *_NUMBERS)
 
 
 def read_robot(top: Fields) -> RobotConfig:
@@ -32,4 +34,5 @@ def read_robot(top: Fields) -> RobotConfig:
         gripper=read_gripper(robot) if robot.has("gripper") else None,
         watchdog_s=robot.number("watchdog_s", _NUMBERS),
         tool_payload=read_tool_payload(robot) if robot.has("tool_payload") else None,
+        model=read_arm_model(robot),
     )

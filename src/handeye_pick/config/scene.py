@@ -8,6 +8,7 @@ check that uses them is ``handeye_pick.scene`` (docs/scene.md).
 
 from __future__ import annotations
 
+from handeye_pick.config.arm import read_arm_checked
 from handeye_pick.config.poses import pose_vector
 from handeye_pick.config.reader import Fields, Number, describe
 from handeye_pick.config.schema import (
@@ -42,9 +43,9 @@ _SOLID_KEYS = ("name", "box", "cylinder")
 
 
 def read_scene(top: Fields) -> SceneConfig:
-    """``scene``: ``bins``, ``boxes``, ``floor_z_mm`` and ``clearance_mm``; names are unique
-    within their kind, and at least one obstacle is given."""
-    scene = top.section("scene", ("bins", "boxes", *_SCENE_NUMBERS))
+    """``scene``: ``bins``, ``boxes``, ``floor_z_mm``, ``clearance_mm`` and ``arm``; names are
+    unique within their kind, and at least one obstacle is given."""
+    scene = top.section("scene", ("bins", "boxes", "arm", *_SCENE_NUMBERS))
     bins = tuple(_bin(item) for item in _entries(scene, "bins", _BIN_KEYS))
     boxes = tuple(_box(item) for item in _entries(scene, "boxes", _BOX_KEYS))
     _unique(scene, "bins", [b.name for b in bins])
@@ -57,6 +58,7 @@ def read_scene(top: Fields) -> SceneConfig:
         boxes=boxes,
         floor_z_mm=floor,
         clearance_mm=scene.number("clearance_mm", _SCENE_NUMBERS),
+        arm_checked=read_arm_checked(scene),
     )
 
 

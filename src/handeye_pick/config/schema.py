@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from handeye_pick.arm.models import ArmModel
 from handeye_pick.config.gripper import AnyGripperConfig
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import LengthUnit, Transform
@@ -71,6 +72,9 @@ class RobotConfig:
     gripper: AnyGripperConfig | None = None  # None: the pick moves only, no gripper is used
     watchdog_s: float = 0.2  # the controller stops the program this long after the PC goes silent
     tool_payload: Payload | None = None  # the empty tool's payload, restored after a release
+    # robot.model (docs/arm-model.md): the arm's kinematics and link solids, checked against the
+    # controller at connect; None: not given (then a scene must say scene.arm: unchecked)
+    model: ArmModel | None = None
 
 
 @dataclass(frozen=True)
@@ -209,6 +213,7 @@ class SceneConfig:
     boxes: tuple[SceneBox, ...] = ()
     floor_z_mm: float | None = None  # the table or floor plane in the base frame; None: none
     clearance_mm: float = 5.0
+    arm_checked: bool = True  # False: scene.arm: unchecked, the tool alone is checked
 
 
 @dataclass(frozen=True)

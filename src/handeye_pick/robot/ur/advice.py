@@ -10,6 +10,8 @@ the controller refused one command (docs/ur-rtde.md, "What makes the client thro
 
 from __future__ import annotations
 
+from handeye_pick.arm.agree import ArmModelMismatch, check_dashboard_model
+from handeye_pick.arm.models import ArmModel
 from handeye_pick.errors import RobotConnectionError, RobotError, RobotFault, SafetyRefusal
 from handeye_pick.robot.port import RobotMode, SafetyMode, mode_name
 from handeye_pick.robot.ur.dashboard import DASHBOARD_PORT, Dashboard
@@ -120,10 +122,13 @@ def dashboard_lost_error(host: str, operation: str, exc: OSError) -> RobotConnec
     )
 
 
-def connect_dashboard(host: str, timeout_s: float) -> tuple[Dashboard, tuple[int, ...] | None]:
+def connect_dashboard(
+    host: str, timeout_s: float, model: ArmModel | None = None
+) -> tuple[Dashboard, tuple[int, ...] | None]:
     """A session's dashboard connection and PolyScope's version, the first thing a session
     opens; each failure as the error the operator reads. A controller in Local mode is refused
-    here, before ur_rtde connects (its connection would stop the running program)."""
+    here, before ur_rtde connects (its connection would stop the running program), and so is
+    one whose dashboard names another arm than ``model`` (``robot.model``, arm/agree.py)."""
     try:
         dashboard = Dashboard(host, timeout_s)
     except OSError as exc:
@@ -131,6 +136,7 @@ def connect_dashboard(host: str, timeout_s: float) -> tuple[Dashboard, tuple[int
     try:
         version = dashboard.polyscope_version()
         remote = dashboard.in_remote_control(version)
+        said = None if model is None else dashboard.robot_model(version)
     except BaseException as exc:
         dashboard.close()
         if isinstance(exc, OSError):
@@ -139,4 +145,10 @@ def connect_dashboard(host: str, timeout_s: float) -> tuple[Dashboard, tuple[int
     if not remote:
         dashboard.close()
         raise local_mode_refusal(host)
+    if model is not None and said is not None:
+        try:
+            check_dashboard_model(model, said, version, host)
+        except ArmModelMismatch:
+            dashboard.close()
+            raise
     return dashboard, version

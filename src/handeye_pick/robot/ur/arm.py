@@ -25,6 +25,7 @@ from types import TracebackType
 
 import numpy as np
 
+from handeye_pick.arm.models import ArmModel
 from handeye_pick.errors import RobotConnectionError, RobotError, RobotFault, SafetyRefusal
 from handeye_pick.geometry import (
     Transform,
@@ -144,6 +145,8 @@ class URRtdeArm:
     itself gives up on a busy control script after about 4 s) and every dashboard connect and
     answer. ``on_sample`` hears every RTDE
     sample read (a recording's ``base -> flange``): every few ms while a move is watched.
+    ``model`` (``robot.model``) is refused before ur_rtde connects when the dashboard names
+    another arm.
     """
 
     def __init__(
@@ -156,11 +159,12 @@ class URRtdeArm:
         connect_timeout_s: float = 20.0,
         call_timeout_s: float = 6.0,
         on_sample: SampleListener | None = None,
+        model: ArmModel | None = None,
     ) -> None:
         self.host = host
         self._on_sample = on_sample
         self._stop_decel_mps2 = stop_decel_mps2
-        self._dashboard, self._version = connect_dashboard(host, call_timeout_s)
+        self._dashboard, self._version = connect_dashboard(host, call_timeout_s, model)
         self.controller_version = (
             "unknown" if self._version is None else ".".join(str(v) for v in self._version)
         )

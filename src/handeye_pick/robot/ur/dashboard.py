@@ -25,6 +25,9 @@ REMOTE_CONTROL_SINCE = (5, 6)
 """PolyScope 5.6 introduced Local/Remote Control and the dashboard's ``is in remote control``
 (ur_rtde 1.6.5 asks it from 5.6 too). A CB3 (PolyScope 3) or an older e-Series has no local mode:
 any client may command it (docs/ur-rtde.md, "PolyScope versions")."""
+ROBOT_MODEL_SINCE = {3: (3, 12), 5: (5, 6)}
+"""The dashboard's ``get robot model``: from PolyScope 3.12 (CB3) and 5.6 (e-Series); an older
+controller does not say which arm it drives."""
 STOP_DEADLINE_S = 15.0
 """How long a stop through the dashboard is retried after the RTDE link is lost (a controller
 that stalled for 8 s still gets its stop once it answers again)."""
@@ -116,6 +119,16 @@ class Dashboard:
         if version is not None and version[:2] < REMOTE_CONTROL_SINCE:
             return True
         return self.ask("is in remote control").lower() == "true"
+
+    def robot_model(self, version: tuple[int, ...] | None) -> str | None:
+        """The arm the controller drives as its dashboard names it (``UR5``: e-Series and CB3
+        alike), for a controller of ``version``; None where that version cannot say (nothing
+        asked) or the answer names no arm (``Could not understand``)."""
+        since = None if version is None else ROBOT_MODEL_SINCE.get(version[0])
+        if since is None or version is None or version[:2] < since:
+            return None
+        answer = self.ask("get robot model")
+        return answer if answer.upper().startswith("UR") else None
 
     def close(self) -> None:
         self._reader.close()
