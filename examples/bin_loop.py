@@ -13,7 +13,9 @@ above its floor), sends every cube as a candidate with its orientation, size and
 cube looks the same turned 90 degrees about its vertical), and takes the one picked out of the
 scene. Then mocks/contact_check.py replays the driven TCP poses with the tool's shape against the
 bin: zero contacts. Prints one line per cycle, the refusals, the contact count and a summary;
-exits 0 when every cube was picked or refused with its reason and nothing touched the bin.
+exits 0 when every cube was picked or refused with its reason and nothing touched the bin, 1
+otherwise, 130 after a Ctrl-C (`run` stops the arm; the simulated robot does not get it). The
+simulated controller's log goes to out/bin_loop-simulator.log under the current folder.
 
 Run it from anywhere after `pip install -e .`:  python examples/bin_loop.py
 """
@@ -35,17 +37,22 @@ sys.path.insert(0, str(ROOT))  # mocks/ is not installed with the package: impor
 
 from vision_loop import (  # noqa: E402  (this folder is on the path when the script runs)
     INTRINSICS,
+    Cell,
     Cloud,
-    RunSession,
+    exit_status,
+    introduce,
     read_cell,
+    run_session,
+    shown,
+    simulator,
 )
 
 from mocks.camera import Scene, SimulatedCamera, read_zivid_matrix  # noqa: E402
 from mocks.contact_check import count_contacts  # noqa: E402
-from mocks.ur_controller import SimulatedController  # noqa: E402
 from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
 
 CONFIG = ROOT / "config" / "bin.yaml"
+SIMULATOR_LOG = Path("out") / "bin_loop-simulator.log"  # under the current folder
 SPEED_FACTOR = 4.0
 MAX_CYCLES = 10
 CUBE_M = 0.05
@@ -133,6 +140,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     config = args.config.resolve()
     cell, bin_ = read_cell(config), Bin(config)
+    introduce(cell, f"bin loop: {len(CUBES)} cubes in bin '{bin_.name}', every move checked "
+                    "against it", SIMULATOR_LOG)
+    return exit_status(lambda: bin_loop(cell, bin_, args.speed_factor))
+
+
+def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
+    """The simulated controller, `run`, the cycles and the contact check; the exit status."""
     scene = build_scene(bin_)
     T_flange_cam = read_zivid_matrix(cell.hand_eye_file)
     T_flange_cam[:3, 3] /= 1000.0
@@ -141,40 +155,40 @@ def main(argv: list[str] | None = None) -> int:
     problems: list[str] = []
     refused: list[str] = []
     picked: list[str] = []
-    with SimulatedController(host=cell.host, tcp_offset=cell.tcp_offset,
-                             speed_factor=args.speed_factor, trace_tcp=True) as controller:
-        run = RunSession(config)
-        try:
-            for cycle in range(1, MAX_CYCLES + 1):
-                capture = run.request("capture", pose="capture")
-                if not capture.get("ok"):
-                    problems.append(f"capture failed: {capture.get('error')}")
-                    break
-                T_base_cam = pose_to_matrix(capture["flange_pose_ur"]) @ T_flange_cam
-                candidates = find_cubes(camera.capture_from(controller), T_base_cam, bin_)
-                if not candidates:
-                    break  # the bin is empty
-                pick = run.request("pick", capture_id=capture["capture_id"],
-                                   candidates=candidates)
-                if pick.get("status") in ("refused", "no-candidate"):  # nothing moved
-                    refused = [f"candidate {r['candidate']}: {'; '.join(r['reasons'])}"
-                               for r in pick.get("refused", [])] or [str(pick.get("error"))]
-                    break
-                if pick.get("status") != "placed":
-                    problems.append(f"pick ended {pick.get('status')}: {pick.get('error')}")
-                    break
-                name = nearest_cube(scene, pose_to_matrix(pick["targets"]["grasp"])[:3, 3])
-                scene.remove_box(name)
-                picked.append(name)
-                alternative = pick.get("alternative", {})
-                print(f"cycle {cycle}: {len(candidates)} cubes seen, picked '{name}' (candidate "
-                      f"{pick['candidate']}, turned {alternative.get('yaw_deg')} deg, tilted "
-                      f"{alternative.get('tilt_deg')} deg), {pick['cycle_s']:.1f} s", flush=True)
-        except RuntimeError as exc:  # no reply, or not the one asked for
-            problems.append(str(exc))
-        finally:
-            status = run.close()
-        contacts = count_contacts(config, controller.motions)
+    with simulator(cell, SIMULATOR_LOG, speed_factor=speed_factor,
+                   trace_tcp=True) as controller:
+        with run_session(cell.config) as run:
+            try:
+                for cycle in range(1, MAX_CYCLES + 1):
+                    capture = run.request("capture", pose="capture")
+                    if not capture.get("ok"):
+                        problems.append(f"capture failed: {capture.get('error')}")
+                        break
+                    T_base_cam = pose_to_matrix(capture["flange_pose_ur"]) @ T_flange_cam
+                    candidates = find_cubes(camera.capture_from(controller), T_base_cam, bin_)
+                    if not candidates:
+                        break  # the bin is empty
+                    pick = run.request("pick", capture_id=capture["capture_id"],
+                                       candidates=candidates)
+                    if pick.get("status") in ("refused", "no-candidate"):  # nothing moved
+                        refused = [f"candidate {r['candidate']}: {'; '.join(r['reasons'])}"
+                                   for r in pick.get("refused", [])] or [str(pick.get("error"))]
+                        break
+                    if pick.get("status") != "placed":
+                        problems.append(f"pick ended {pick.get('status')}: {pick.get('error')}")
+                        break
+                    name = nearest_cube(scene, pose_to_matrix(pick["targets"]["grasp"])[:3, 3])
+                    scene.remove_box(name)
+                    picked.append(name)
+                    turn = pick.get("alternative", {})
+                    print(f"cycle {cycle}: {len(candidates)} cubes seen, picked '{name}' "
+                          f"(candidate {pick['candidate']}, turned {turn.get('yaw_deg')} deg, "
+                          f"tilted {turn.get('tilt_deg')} deg), {pick['cycle_s']:.1f} s",
+                          flush=True)
+            except RuntimeError as exc:  # no reply, or not the one asked for
+                problems.append(str(exc))
+        status = run.close()
+        contacts = count_contacts(cell.config, controller.motions)
     if status != 0:
         problems.append(f"handeye-pick run exited with status {status}")
     left = sorted(set(CUBES) - set(picked))
@@ -190,6 +204,7 @@ def main(argv: list[str] | None = None) -> int:
     verdict = "every check passed" if not problems else f"{len(problems)} checks FAILED"
     print(f"{len(picked)} of {len(CUBES)} cubes picked ({', '.join(picked)}), left: "
           f"{', '.join(left) or 'none'}; {verdict}; {time.monotonic() - started:.1f} s in all")
+    print(f"audit records: {shown(cell.audit_file)}")
     return 1 if problems else 0
 
 

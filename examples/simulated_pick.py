@@ -7,8 +7,10 @@ Starts ``python -m mocks.ur_controller`` on 127.0.0.1 (a UR5e at its home pose w
 
 which prints its progress, the plan and the result, then stops the controller, also on a failure
 or Ctrl-C, and prints the total wall time and the share of it the arm spent moving (from the
-simulated controller's motion record). Exits with the pick's status (0 done, 2 input,
-3 refused, 4 fault, 130 interrupted).
+simulated controller's motion record). The controller's log goes to
+out/simulated_pick-simulator.log under the current folder. Exits with the pick's status (0 done,
+2 input, 3 refused, 4 fault, 130 interrupted), or 1 with one line when the controller cannot
+start (another one already serves 127.0.0.1).
 Needs only ``pip install -e .``; run it from anywhere.
 """
 
@@ -25,6 +27,8 @@ from typing import IO
 
 ROOT = Path(__file__).resolve().parents[1]
 HOST = "127.0.0.1"
+SIMULATOR_LOG = Path("out") / "simulated_pick-simulator.log"  # under the current folder
+EXIT_INTERRUPTED = 130
 READY_TIMEOUT_S = 20.0
 CONTROLLER = [
     sys.executable,
@@ -47,30 +51,31 @@ PICK_ARGS = ["pick", "--config", "config/demo.yaml", "--detection", "config/demo
 PICK = [sys.executable, "-c", "import sys; from handeye_pick.cli import main; sys.exit(main())"]
 
 
-def _forward(stream: IO[str], ready: threading.Event) -> None:
-    """Pass the controller's lines to stderr; flag its ``ready`` line."""
+def _watch(stream: IO[str], ready: threading.Event) -> None:
+    """Flag the controller's ``ready`` line (its only other output goes to its log)."""
     for line in stream:
         if line.startswith("ready"):
             ready.set()
-        print(f"[simulated controller] {line.rstrip()}", file=sys.stderr, flush=True)
 
 
 def _wait_ready(controller: subprocess.Popen[str]) -> bool:
     ready = threading.Event()
     if controller.stdout is not None:
-        threading.Thread(target=_forward, args=(controller.stdout, ready), daemon=True).start()
+        threading.Thread(target=_watch, args=(controller.stdout, ready), daemon=True).start()
     deadline = time.monotonic() + READY_TIMEOUT_S
     while not ready.wait(0.1):
         if controller.poll() is not None:
             print(
-                f"the simulated controller exited ({controller.returncode}) before it was ready: "
-                f"is another one already listening on {HOST}?",
+                f"error: the simulated controller exited ({controller.returncode}) before it was "
+                f"ready: is another one already serving {HOST}? stop it, then run this again "
+                f"({SIMULATOR_LOG} says why)",
                 file=sys.stderr,
             )
             return False
         if time.monotonic() > deadline:
             print(
-                f"the simulated controller was not ready within {READY_TIMEOUT_S:.0f} s",
+                f"error: the simulated controller was not ready within {READY_TIMEOUT_S:.0f} s "
+                f"({SIMULATOR_LOG} says why)",
                 file=sys.stderr,
             )
             return False
@@ -88,23 +93,36 @@ def _run_pick() -> int:
 
 
 def main() -> int:
+    try:
+        return _demo()
+    except KeyboardInterrupt:  # before the pick started
+        print("interrupted (Ctrl-C) before the pick; the simulated controller is stopped",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _demo() -> int:
     started = time.monotonic()
-    with tempfile.TemporaryDirectory() as folder:
+    SIMULATOR_LOG.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory() as folder, SIMULATOR_LOG.open("w") as log:
         motions = Path(folder) / "motions.jsonl"
         controller_args = [*CONTROLLER, "--record-motions", str(motions)]
         print(f"$ python {' '.join(controller_args[1:])}", flush=True)
+        print(f"(the simulated controller's log goes to {SIMULATOR_LOG})", flush=True)
         # Its own session: a Ctrl-C at the terminal must reach the pick (which then sends stopL),
         # not the simulated robot, which is stopped below once the pick has ended.
         controller = subprocess.Popen(
             controller_args,
             cwd=ROOT,
             stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
+            stderr=log,
             text=True,
             start_new_session=True,
         )
         try:
-            status = _run_pick() if _wait_ready(controller) else 1
+            if not _wait_ready(controller):
+                return 1
+            status = _run_pick()
         finally:
             controller.terminate()
             try:

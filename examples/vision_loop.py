@@ -18,8 +18,13 @@ taken on the pick's `view-clear` event, as soon as the arm has left the camera's
 next pick is queued while the arm places. Every cycle checks that the grasp (planned and
 reached) landed within 1 mm of the true centre of a box's top face and moves that box to where
 it was placed, and prints its cycle time, the share of it the arm moved and the detection time
-hidden under motion. Exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches all three
-processes: `run` stops the arm and exits 130, then the controller is stopped.
+hidden under motion. Exits 0 when every check passed, 1 otherwise. A Ctrl-C reaches the example
+and `run`, not the simulated robot: `run` stops the arm and exits 130, then the controller is
+stopped and the example exits 130.
+
+The terminal shows the loop's story: the example's lines (stdout) and `run`'s progress (stderr).
+The simulated controller's log goes to out/vision_loop-simulator.log under the current folder,
+named at the start.
 
 Run it from anywhere after `pip install -e .`:  python examples/vision_loop.py [--eye-to-hand]
 """
@@ -29,10 +34,13 @@ from __future__ import annotations
 import argparse
 import json
 import queue
+import signal
 import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
@@ -51,6 +59,8 @@ from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
 
 CONFIG = ROOT / "config" / "loop.yaml"
 CONFIG_EYE_TO_HAND = ROOT / "config" / "loop-eye-to-hand.yaml"
+SIMULATOR_LOG = Path("out") / "vision_loop-simulator.log"  # under the current folder
+EXIT_INTERRUPTED = 130  # Ctrl-C, as handeye-pick's own commands
 CYCLES = 5
 TOLERANCE_MM = 1.0  # largest accepted distance of a grasp from the true top-face centre
 SPEED_FACTOR = 4.0  # the simulated arm moves four times faster than real time
@@ -94,21 +104,71 @@ class Cell:
     tcp_offset: tuple[float, ...]  # T_flange_tcp as a UR vector (m, rad)
     eye_in_hand: bool
     hand_eye_file: Path  # T_flange_cam (eye-in-hand) or T_base_cam, Zivid format, mm
+    audit_file: Path
+    unsensed_output: str | None  # "tool output 0": a digital gripper without confirm_input
 
 
 def read_cell(config: Path) -> Cell:
-    """The controller address, TCP offset, camera mounting and hand-eye file of a cell config."""
+    """The controller address, TCP offset, camera mounting, hand-eye file, audit file and
+    gripper of a cell config."""
     doc = yaml.safe_load(config.read_text())
     hand_eye = doc["hand_eye"]
     if hand_eye["units"] != "mm" or hand_eye.get("invert"):
         raise ValueError(f"{config}: this example needs a hand-eye file in mm, not inverted")
+    gripper = doc["robot"].get("gripper")
+    unsensed = (gripper is not None and gripper.get("type", "digital-output") == "digital-output"
+                and "confirm_input" not in gripper)
     return Cell(
         config=config,
         host=str(doc["robot"]["host"]),
         tcp_offset=tuple(float(v) for v in doc["robot"]["tcp_offset"]),
         eye_in_hand=hand_eye["mode"] == "eye-in-hand",
         hand_eye_file=(config.parent / hand_eye["file"]).resolve(),
+        audit_file=(config.parent / doc["audit"]["file"]).resolve(),
+        unsensed_output=f"{gripper['bank']} output {gripper['index']}" if unsensed else None,
     )
+
+
+def shown(path: Path) -> str:
+    """A path for a person: relative to the current folder when it lies under it."""
+    try:
+        return str(path.resolve().relative_to(Path.cwd()))
+    except ValueError:
+        return str(path.resolve())
+
+
+def introduce(cell: Cell, what: str, log: Path) -> None:
+    """The example's first lines: what runs, where the simulator's log goes and, for a gripper
+    nothing senses, why every grasp will read `grasp unconfirmed`."""
+    print(f"{what}, through handeye-pick run --config {shown(cell.config)}", flush=True)
+    print(f"simulated UR controller on {cell.host}: its log goes to {shown(log)}", flush=True)
+    if cell.unsensed_output is not None:
+        print(f"the gripper ({cell.unsensed_output}) has no confirm_input in "
+              f"{cell.config.name}: nothing senses the part, so every grasp reads 'grasp "
+              "unconfirmed' and is carried as held (docs/grippers.md)", flush=True)
+
+
+@contextmanager
+def simulator(cell: Cell, log: Path, **options: Any) -> Iterator[SimulatedController]:
+    """The simulated controller at the cell's address with its TCP offset (``options`` as
+    SimulatedController's), its log in ``log`` (emptied first), stopped at the end; SystemExit
+    with one line when it cannot start."""
+    log.parent.mkdir(parents=True, exist_ok=True)
+    log.write_text("")
+    controller = SimulatedController(host=cell.host, tcp_offset=cell.tcp_offset, log_path=log,
+                                     **options)
+    try:
+        controller.start()
+    except OSError:
+        raise SystemExit(f"error: the simulated controller cannot listen on {cell.host}: is "
+                         "another simulator or example still running there? stop it, then run "
+                         f"this again ({shown(log)} says why)") from None
+    except RuntimeError as exc:
+        raise SystemExit(f"error: {exc}") from None
+    try:
+        yield controller
+    finally:
+        controller.stop()
 
 
 def build_scene() -> Scene:
@@ -269,6 +329,48 @@ class RunSession:
             return self._process.wait()
 
 
+class CtrlC(Exception):
+    """A Ctrl-C stopped the loop; the message says how `run` ended."""
+
+
+@contextmanager
+def run_session(config: Path) -> Iterator[RunSession]:
+    """`handeye-pick run --config CONFIG` for the body, closed at its end. A Ctrl-C in the body
+    reached `run` too: wait (a second Ctrl-C ignored) until it has stopped the arm and exited,
+    then raise CtrlC saying how it ended."""
+    run = RunSession(config)
+    try:
+        yield run
+    except KeyboardInterrupt:
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        raise CtrlC(run_ending(run.close())) from None
+    finally:
+        run.close()
+
+
+def run_ending(status: int) -> str:
+    """How `run` ended after a Ctrl-C, from its exit status (negative: killed by that signal)."""
+    if status == EXIT_INTERRUPTED:
+        return "handeye-pick run stopped the arm and exited 130"
+    if status < 0:
+        return f"handeye-pick run was ended by {signal.Signals(-status).name}"
+    return f"handeye-pick run exited {status}"
+
+
+def exit_status(loop: Callable[[], int]) -> int:
+    """``loop()``'s exit status; after a Ctrl-C, one line and 130 (the simulated controller is
+    stopped by then: the loops run inside ``simulator``)."""
+    try:
+        return loop()
+    except CtrlC as stop:
+        ended = f": {stop}"
+    except KeyboardInterrupt:  # before `run` started, or after it ended
+        ended = ""
+    print(f"interrupted (Ctrl-C){ended}; the simulated controller is stopped", file=sys.stderr,
+          flush=True)
+    return EXIT_INTERRUPTED
+
+
 # --- one cycle ----------------------------------------------------------------------------------
 
 
@@ -425,28 +527,35 @@ def main(argv: list[str] | None = None) -> int:
     cell = read_cell(config.resolve())
     scene = build_scene()
     camera = build_camera(scene, cell)
+    mount = "a wrist camera" if cell.eye_in_hand else "a camera fixed above the table"
+    introduce(cell, f"vision loop: {CYCLES} capture, pick and place cycles with {mount}",
+              SIMULATOR_LOG)
+    return exit_status(lambda: vision_loop(cell, scene, camera))
+
+
+def vision_loop(cell: Cell, scene: Scene, camera: SimulatedCamera) -> int:
+    """The simulated controller, `run` and the cycles; the example's exit status."""
     started = time.monotonic()
     problems: list[str] = []
     done = 0
-    with SimulatedController(host=cell.host, tcp_offset=cell.tcp_offset,
-                             speed_factor=SPEED_FACTOR) as controller:
-        run = RunSession(cell.config)
-        try:
-            if not cell.eye_in_hand:
-                done, found = run_eye_to_hand(run, controller, scene, camera)
-                problems += [f"cycle {done}: {p}" for p in found]
-            while cell.eye_in_hand and done < CYCLES and not problems:
-                done += 1
-                problems += [f"cycle {done}: {p}"
-                             for p in run_cycle(done, run, controller, scene, camera)]
-            if not problems:
-                home = run.request("move", pose="home")
-                if not home.get("ok"):
-                    problems.append(f"move home ended {home.get('status')}: {home.get('error')}")
-        except RuntimeError as exc:  # no reply, or not the one asked for
-            problems.append(str(exc))
-        finally:
-            status = run.close()
+    with simulator(cell, SIMULATOR_LOG, speed_factor=SPEED_FACTOR) as controller:
+        with run_session(cell.config) as run:
+            try:
+                if not cell.eye_in_hand:
+                    done, found = run_eye_to_hand(run, controller, scene, camera)
+                    problems += [f"cycle {done}: {p}" for p in found]
+                while cell.eye_in_hand and done < CYCLES and not problems:
+                    done += 1
+                    problems += [f"cycle {done}: {p}"
+                                 for p in run_cycle(done, run, controller, scene, camera)]
+                if not problems:
+                    home = run.request("move", pose="home")
+                    if not home.get("ok"):
+                        problems.append(f"move home ended {home.get('status')}: "
+                                        f"{home.get('error')}")
+            except RuntimeError as exc:  # no reply, or not the one asked for
+                problems.append(str(exc))
+        status = run.close()
         moving_s = sum(motion["moving_s"] for motion in controller.motions)
     if status != 0:
         problems.append(f"handeye-pick run exited with status {status}")
@@ -457,6 +566,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"{done} of {CYCLES} cycles, {verdict} (grasps within {TOLERANCE_MM} mm of the true "
           f"top centres), {total_s:.1f} s in all, of which the arm moved {moving_s:.1f} s "
           f"({moving_s / total_s:.0%}; motion runs {SPEED_FACTOR:g} x real speed)")
+    print(f"audit records: {shown(cell.audit_file)}")
     return 1 if problems else 0
 
 

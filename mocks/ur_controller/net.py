@@ -2,7 +2,8 @@
 
 Used for every port the simulated controller serves (RTDE 30004, dashboard 29999, script 30003,
 Robotiq 63352, admin 30999). A connection drop (fault `drop-connection`) closes every client
-socket while the listening socket stays open, like a network blip.
+socket while the listening socket stays open, like a network blip. A port that cannot be bound
+raises `CannotListen`, which says which address, port and server.
 """
 
 from __future__ import annotations
@@ -14,6 +15,11 @@ import threading
 from collections.abc import Callable
 
 log = logging.getLogger("mocks.ur_controller")
+
+
+class CannotListen(OSError):
+    """A port that cannot be bound; ``errno`` is the bind's (EADDRINUSE: taken, EADDRNOTAVAIL:
+    not an address of this computer) and ``strerror`` says which address, port and server."""
 
 
 class Listener:
@@ -38,7 +44,9 @@ class Listener:
             sock.bind((self.host, self.port))
         except OSError as exc:
             sock.close()
-            raise OSError(f"{self.name}: cannot listen on {self.host}:{self.port}: {exc}") from exc
+            where = f"{self.host}:{self.port} ({self.name})"
+            raise CannotListen(exc.errno, f"cannot listen on {where}: {exc.strerror or exc}"
+                               ) from exc
         sock.listen(8)
         self._sock = sock
         thread = threading.Thread(

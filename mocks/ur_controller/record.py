@@ -1,15 +1,20 @@
 """Append-only records of dicts: the command record (what the robot was told: one dict per
 motion, stop or payload command the script ran) and the motion record (one dict per motion once
 it ended); README.md gives both formats. With a path, each entry is also appended to it as one
-JSON line, flushed at once.
+JSON line, flushed at once. A file that cannot be written (a full disk) ends with one error line
+in the log; the record goes on in memory.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
+import logging
 import threading
 from pathlib import Path
 from typing import Any, TextIO
+
+log = logging.getLogger("mocks.ur_controller")
 
 
 class CommandRecord:
@@ -26,8 +31,13 @@ class CommandRecord:
         with self._lock:
             self._entries.append(entry)
             if self._file is not None:
-                self._file.write(json.dumps(entry) + "\n")
-                self._file.flush()
+                try:
+                    self._file.write(json.dumps(entry) + "\n")
+                    self._file.flush()
+                except OSError as exc:
+                    log.error("record file %s: cannot write (%s): it ends here; the controller "
+                              "goes on", self._file.name, exc.strerror or exc)
+                    self._close_file()
 
     def entries(self) -> list[dict[str, Any]]:
         """A copy of every entry so far, in order."""
@@ -36,6 +46,10 @@ class CommandRecord:
 
     def close(self) -> None:
         with self._lock:
-            if self._file is not None:
-                self._file.close()
-                self._file = None
+            self._close_file()
+
+    def _close_file(self) -> None:
+        file, self._file = self._file, None
+        if file is not None:
+            with contextlib.suppress(OSError):  # what could not be written is said already
+                file.close()

@@ -8,6 +8,7 @@ for its `ready` line and forwards inject/snapshot/commands requests as JSON line
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import subprocess
@@ -32,14 +33,22 @@ class SimulatedController:
     `FAULT@WHEN` specs, `profile` is a name in profiles.py (default e-series), `tracking` adds
     tracking lag and measurement noise, `part_width_mm` puts a part at the gripper,
     `feedback_input` is (output bit, input bit). An unknown name is a TypeError here; options
-    that do not fit together are refused by the child, at start().
+    that do not fit together are refused by the child, at start(). `log_path`: the child's log
+    (its stderr) is appended to this file instead of going to this process's stderr.
+
+    The child runs in a session of its own: a Ctrl-C at the terminal reaches the client, never
+    the controller, as with a real robot; stop() ends it, and so does this process's end (its
+    stdin closes).
     """
 
-    def __init__(self, host: str = "127.0.0.1", **options: Any):
+    def __init__(self, host: str = "127.0.0.1", log_path: str | Path | None = None,
+                 **options: Any):
         controller_options = ControllerOptions(host=host, **options)
         self.host = host
         self.profile = controller_options.profile
         self._argv = to_argv(controller_options)
+        self._log_path = log_path
+        self._why = "its stderr says why" if log_path is None else f"{log_path} says why"
         self._process: subprocess.Popen[str] | None = None
         self._lock = threading.Lock()
 
@@ -54,10 +63,13 @@ class SimulatedController:
         env = dict(os.environ)
         env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(_IMPORT_ROOT),
                                                           env.get("PYTHONPATH")]))
-        process = subprocess.Popen(
-            [sys.executable, "-m", "mocks.ur_controller", "--serve-stdio", *self._argv],
-            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=env,
-        )
+        with (contextlib.nullcontext() if self._log_path is None  # the child keeps a copy
+              else Path(self._log_path).open("a", encoding="utf-8")) as log:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "mocks.ur_controller", "--serve-stdio", *self._argv],
+                stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=log, text=True, env=env,
+                start_new_session=True,
+            )
         self._process = process
         first_line = self._read_line(_START_TIMEOUT_S)
         if not first_line.startswith("ready"):
@@ -65,9 +77,9 @@ class SimulatedController:
             self._process = None
             if code == EXIT_CANNOT_LISTEN:
                 raise OSError(f"simulated controller cannot listen on {self.host} "
-                              f"(its stderr says why)")
+                              f"({self._why})")
             raise RuntimeError(f"simulated controller on {self.host} did not start: exit code "
-                               f"{code}, output {first_line!r} (its stderr says why)")
+                               f"{code}, output {first_line!r} ({self._why})")
         return self
 
     def stop(self) -> None:

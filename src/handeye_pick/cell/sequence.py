@@ -386,7 +386,8 @@ def _close(gripper: Gripper, progress: Progress, commands: list[dict[str, object
     with progress.step(f"gripper close ({gripper.kind})"):
         grasp = gripper.close()
     commands.append({"command": "close", "grasp": grasp.value})
-    progress.say(f"grasp {grasp.value}")
+    why = f": {gripper.why_missed()}" if grasp is GraspState.MISSED else ""
+    progress.say(f"grasp {grasp.value}{why}")
     return grasp
 
 

@@ -78,11 +78,14 @@ def run(args: argparse.Namespace) -> int:
     )
     detection = detection_from_args(args)
     given = capture_pose_from_args(args, detection)
+    progress = progress_from_args(args)
     with contextlib.ExitStack() as stack:
         publisher = publisher_from_args(args, config)
         if publisher is not None:  # closed after the cell: its last records are recorded
             stack.enter_context(publisher)
-        cell = Cell(config, progress=progress_from_args(args), observer=publisher)
+            if publisher.files is not None:
+                progress.say(publisher.files.describe())
+        cell = Cell(config, progress=progress, observer=publisher)
         report.audit_from(cell)
         capture = cell.given_capture(*given) if given is not None else None
         with cell:

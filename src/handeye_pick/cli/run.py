@@ -92,10 +92,13 @@ def run(args: argparse.Namespace) -> int:
         raise InputError("run --allow-remote needs --token-file FILE with a shared secret")
     progress = Progress(None if args.quiet else sys.stderr)
     config = load_config(args.config)
+    progress.say(f"audit records go to {config.audit.file}")
     with contextlib.ExitStack() as stack:
         publisher = publisher_from_args(args, config, live)
         if publisher is not None:  # closed after the cell: its last records are recorded
             stack.enter_context(publisher)
+            if publisher.files is not None:
+                progress.say(publisher.files.describe())
             if publisher.live_port is not None and live is not None:
                 progress.say(f"live view on ws://{live[0]}:{publisher.live_port}")
         with Cell(config, progress=progress, observer=publisher) as cell:

@@ -35,6 +35,18 @@ class DigitalOutputGripper:
         held = self._wait_for_input(held=True)
         return GraspState.CONFIRMED if held else GraspState.MISSED
 
+    def why_missed(self) -> str:
+        """The feedback input, the level that means "held" and the wait (s), and what to check."""
+        feedback = self._config.confirm_input
+        if feedback is None:  # close() never misses without one
+            return "no confirm_input is configured"
+        return (
+            f"{feedback.bank.value} digital input {feedback.index} did not read "
+            f"{str(feedback.value).lower()} within {self._config.confirm_timeout_s:g} s of "
+            "closing (robot.gripper.confirm_input, confirm_timeout_s): check that a part was "
+            "under the gripper and that its sensor switches that input"
+        )
+
     def open(self) -> bool:
         """Switch the output off; with a feedback input, the release is confirmed when it clears
         within ``confirm_timeout_s`` (GripperFault when it does not)."""

@@ -29,6 +29,12 @@ class Gripper(Protocol):
         """Close on the part and wait until the fingers (or suction) settle; the sensed state."""
         ...
 
+    def why_missed(self) -> str:
+        """Why the last ``close`` sensed no part, in one clause an operator can act on: what the
+        gripper waited for (which input at which level, or which finger width), for how long,
+        and what to check."""
+        ...
+
     def open(self) -> bool:
         """Open and wait until done; True when the release is sensed (the part left the
         gripper), False when the gripper cannot tell. GripperFault when it senses the part is

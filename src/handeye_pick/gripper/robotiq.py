@@ -15,7 +15,6 @@ Widths are between the fingers (mm), mapped linearly from ``stroke_mm`` at posit
 
 from __future__ import annotations
 
-import logging
 import socket
 import time
 from collections.abc import Callable
@@ -23,8 +22,6 @@ from collections.abc import Callable
 from handeye_pick.config.gripper import Robotiq2FConfig
 from handeye_pick.errors import GripperFault
 from handeye_pick.gripper.port import GraspState
-
-log = logging.getLogger(__name__)
 
 OPEN, CLOSED = 0, 255
 STA_ACTIVE = 3
@@ -64,6 +61,7 @@ class Robotiq2F:
         self._config = config
         self._where = f"Robotiq gripper on {host}:{config.port}"
         self._broken: str | None = None
+        self._missed = "the fingers have not closed yet"  # why_missed(), set by close()
         try:
             self._sock = socket.create_connection((host, config.port), timeout=config.timeout_s)
         except OSError as exc:
@@ -89,17 +87,23 @@ class Robotiq2F:
         if obj == OBJ_CONTACT_CLOSING and low <= width_mm <= high:
             return GraspState.CONFIRMED
         if obj == OBJ_CONTACT_CLOSING:
-            log.warning(
-                "%s stopped on something %.1f mm wide, expected %g..%g mm: counted as missed",
-                self._where,
-                width_mm,
-                low,
-                high,
+            self._missed = (
+                f"the fingers of the {self._where} stopped on something {width_mm:.1f} mm wide, "
+                f"not {low:g}..{high:g} mm (expected_width_mm): check the part and where it "
+                "was gripped"
             )
             return GraspState.MISSED
         if obj == OBJ_AT_POSITION:
+            self._missed = (
+                f"the fingers of the {self._where} closed to {width_mm:.1f} mm without "
+                "touching anything (OBJ 3): check that a part was between them"
+            )
             return GraspState.MISSED
         raise GripperFault(f"{self._where}: closing ended with OBJ {obj} at {width_mm:.1f} mm")
+
+    def why_missed(self) -> str:
+        """What the fingers did at the last missed close: their width and why it is no grasp."""
+        return self._missed
 
     def open(self) -> bool:
         """Open fully; the release is confirmed when the fingers reach the open position."""

@@ -92,6 +92,15 @@ class McapFiles:
     def recording(self) -> bool:
         return self._writer is not None
 
+    def describe(self) -> str:
+        """Where the recording goes, for a person: the file written now and, for a folder, when
+        the next one starts."""
+        line = f"recording to {self.paths[-1]}"
+        if self._folder:
+            size = f"{self._max_file_bytes / (1 << 30):g} GiB"
+            line += f" (a new file in {self._path} each hour and past {size})"
+        return line
+
     def _open(self) -> None:
         now = datetime.now(timezone.utc)
         path = self._path if not self._folder else self._new_name(now)
@@ -113,6 +122,7 @@ class McapFiles:
             raise InputError(f"--record {path}: cannot create ({exc})") from None
         self._hour = now.strftime("%Y%m%d%H")
         self.paths.append(path)
+        log.info("recording to %s", path)
         self._on_new_file()
 
     def _new_name(self, now: datetime) -> Path:
