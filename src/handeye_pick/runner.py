@@ -61,9 +61,8 @@ log = logging.getLogger(__name__)
 
 MAX_LINE_BYTES = 1_000_000
 """Longest request line read; a longer one is answered with an error, never held in memory."""
-MISSED_MESSAGE = (
-    "the gripper closed on nothing: it was opened and the arm retreated; the cell is ready"
-)
+MISSED_MESSAGE = "it was opened and the arm retreated; the cell is ready"
+"""Follows why the gripper sensed no part, in a missed pick's reply."""
 MAX_CANDIDATES = 100
 """Most candidate detections one pick request may carry."""
 
@@ -310,7 +309,7 @@ def pick_reply(result: PickResult) -> dict[str, object]:
     if result.alternative is not None:
         reply["alternative"] = result.alternative
     if result.status is Status.MISSED:
-        reply["error"] = MISSED_MESSAGE
+        reply["error"] = f"grasp missed: {result.missed or 'no part sensed'}: {MISSED_MESSAGE}"
     return reply
 
 

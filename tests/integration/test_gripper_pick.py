@@ -267,7 +267,12 @@ def test_the_run_loop_answers_missed_and_stays_ready(
         }
         reply = runner.handle(json.dumps(pick_request))
         assert (reply["ok"], reply["status"]) == (False, "missed"), reply
-        assert "closed on nothing" in str(reply["error"])
+        # Why, in the reply the vision program reads, and in the audit's command record.
+        assert "without touching anything (OBJ 3)" in str(reply["error"]), reply
+        assert "the arm retreated" in str(reply["error"]), reply
+        close = [c for c in _outcome_commands(tmp_path) if c["command"] == "close"]
+        assert close == [{"command": "close", "grasp": "missed", "why": close[0]["why"]}]
+        assert "without touching anything" in close[0]["why"]
         status = runner.handle('{"id": "3", "op": "status"}')
         assert (status["ready"], status["halted"]) == (True, False), status
 
@@ -318,3 +323,10 @@ def _robotiq(host: str, request: str) -> str:
     with socket.create_connection((host, 63352), timeout=2.0) as sock:
         sock.sendall(request.encode() + b"\n")
         return sock.makefile("r").readline().strip()
+
+
+def _outcome_commands(tmp_path: Path) -> list[dict[str, Any]]:
+    """The gripper's commands in the last outcome record of the audit file."""
+    outcome = [r for r in audit_records(tmp_path) if r["event"] == "outcome"][-1]
+    commands: list[dict[str, Any]] = outcome["gripper"]["commands"]
+    return commands

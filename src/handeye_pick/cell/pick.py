@@ -56,6 +56,7 @@ class PickResult:
     cycle_s: float  # wall time of the pick call
     # With a scene: the grasp alternative taken and why the others were not (Chosen's record)
     alternative: dict[str, object] | None = None
+    missed: str | None = None  # status missed: why the gripper sensed no part
 
 
 @dataclass(frozen=True)
@@ -189,6 +190,7 @@ def _finish(state: CellState, pick: _PickRun, done: Executed | None) -> dict[str
     elif done.grasp is GraspState.MISSED:
         pick.place_index = None
         pick.status = Status.MISSED
+        pick.missed = done.missed
     elif pick.place_index is not None:
         state.place_index += 1
         pick.status = Status.PLACED
@@ -227,6 +229,7 @@ class _PickRun:
         self.status = Status.DRY_RUN
         self.reached: dict[str, Transform] = {}
         self.errors: dict[str, StepError] = {}
+        self.missed: str | None = None  # status missed: why the gripper sensed no part
 
     def required_chosen(self) -> Chosen:
         if self.chosen is None:  # run_operation calls finish only after prepare chose
@@ -252,6 +255,7 @@ class _PickRun:
             T_base_tcp_place=_place_pose(chosen.steps) if self.place_index is not None else None,
             cycle_s=cycle_s,
             alternative=chosen.alternative_fields(),
+            missed=self.missed,
         )
 
 

@@ -87,6 +87,7 @@ class Executed:
 
     reached: dict[str, Transform]
     grasp: GraspState | None = None
+    missed: str | None = None  # why the gripper sensed no part (``Gripper.why_missed``)
 
 
 def execute(
@@ -144,7 +145,7 @@ def execute(
         if run.last_move in ran:
             break
     del outcome["step"]
-    return Executed(run.reached, run.grasp)
+    return Executed(run.reached, run.grasp, run.missed)
 
 
 @dataclass(frozen=True)
@@ -186,6 +187,7 @@ class _Run:
         if gripper is not None:
             outcome["gripper"] = {"kind": gripper.kind, "commands": self.commands}
         self.last_move: str | None = None  # a missed grasp ends the sequence after this move
+        self.missed: str | None = None  # why the grasp missed
         self.T_base_tcp_from: Transform | None = None  # the previous move's target
 
     def starting(self, step: str) -> None:
@@ -232,7 +234,7 @@ class _Run:
             self.grasp = None
             _set_payload(self.arm, self.config.robot.tool_payload, "empty tool", progress, commands)
             return
-        self.grasp = _close(gripper, progress, commands)
+        self.grasp, self.missed = _close(gripper, progress, commands)
         if self.grasp is GraspState.MISSED:
             _release(gripper, progress, commands)
             _set_payload(self.arm, self.config.robot.tool_payload, "empty tool", progress, commands)
@@ -382,12 +384,17 @@ def path_at(steps: Sequence[Step], index: int, last_move: str | None) -> list[Mo
     return path
 
 
-def _close(gripper: Gripper, progress: Progress, commands: list[dict[str, object]]) -> GraspState:
+def _close(
+    gripper: Gripper, progress: Progress, commands: list[dict[str, object]]
+) -> tuple[GraspState, str | None]:
+    """Close the gripper; the grasp it senses and, when it missed, why (for the audit's command
+    record, the progress line and the reply)."""
     with progress.step(f"gripper close ({gripper.kind})"):
         grasp = gripper.close()
-    commands.append({"command": "close", "grasp": grasp.value})
-    why = f": {gripper.why_missed()}" if grasp is GraspState.MISSED else ""
-    progress.say(f"grasp {grasp.value}{why}")
+    why = gripper.why_missed() if grasp is GraspState.MISSED else None
+    commands.append({"command": "close", "grasp": grasp.value, **({"why": why} if why else {})})
+    progress.say(f"grasp {grasp.value}" + (f": {why}" if why else ""))
+    return grasp, why
     return grasp
 
 
