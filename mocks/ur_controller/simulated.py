@@ -91,6 +91,13 @@ class SimulatedController:
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
 
+    @property
+    def pid(self) -> int:
+        """The child process's id (for a test that looks at how the OS scheduled it)."""
+        if self._process is None:
+            raise RuntimeError(f"simulated controller on {self.host} is not running")
+        return self._process.pid
+
     # --- requests ---------------------------------------------------------------------------
 
     def inject(self, spec: str) -> None:
