@@ -122,6 +122,7 @@ class Controller:
         self._analog_out = [0.0, 0.0]
         self._analog_io_types = 0
         self._time_s = 0.0
+        self._clock_start_s = time.monotonic()  # wall time of controller time 0 (the loop's)
         self._output_table = OutputTable(self.profile.output_types)
         self._outputs: Mapping[str, object] = {}
         self._stopping = threading.Event()
@@ -484,11 +485,12 @@ class Controller:
 
     def _write_registers(self, values: Mapping[str, object]) -> None:
         regs = self.registers
+        arrived_s = (time.monotonic() - self._clock_start_s) // self._cycle_s * self._cycle_s
         for name, value in values.items():
             prefix, _, number = name.rpartition("_")
             if prefix == "input_int_register":
                 regs.in_int[int(number)] = int(_number(value))
-                regs.in_int_fresh.add(int(number))
+                regs.in_int_fresh[int(number)] = arrived_s
             elif prefix == "input_double_register":
                 regs.in_double[int(number)] = _number(value)
             elif prefix == "input_bit_register":
@@ -507,15 +509,15 @@ class Controller:
         RTDE sample goes out, late but in order; a loop more than MAX_LAG_S behind the wall
         clock lets its clock slip instead (controller time then runs behind the wall clock)."""
         period_s = self._cycle_s
-        start_s = time.monotonic()
+        self._clock_start_s = time.monotonic()
         cycle = 0
         while not self._stopping.is_set():
             cycle += 1
-            delay_s = start_s + cycle * period_s - time.monotonic()
+            delay_s = self._clock_start_s + cycle * period_s - time.monotonic()
             if delay_s > 0:
                 self._stopping.wait(delay_s)
             elif delay_s < -MAX_LAG_S:
-                start_s -= delay_s + MAX_LAG_S  # slip: catch up no more than MAX_LAG_S
+                self._clock_start_s -= delay_s + MAX_LAG_S  # slip: catch up at most MAX_LAG_S
             with self.lock:
                 try:
                     self._cycle(period_s, cycle * period_s)

@@ -68,14 +68,16 @@ class Registers:
         self.in_bits = [False] * 128
         self.out_bits = [False] * 128
         # Controller time of the cycle that took in the last client write to each input int
-        # register (the watchdog's "update"), and the registers written since the last cycle.
+        # register (the watchdog's "update"), and the registers written since the last cycle,
+        # each with the controller time by the wall clock when the write arrived.
         self.in_int_written_s = [0.0] * 48
-        self.in_int_fresh: set[int] = set()
+        self.in_int_fresh: dict[int, float] = {}
 
     def take_in_writes(self, now_s: float) -> None:
-        """Start of a cycle: inputs written since the last one count as updated now."""
-        for n in self.in_int_fresh:
-            self.in_int_written_s[n] = now_s
+        """Start of a cycle: inputs written since the last one count as updated now, or when
+        they arrived if that is later (a late loop catching up runs cycles stamped before it)."""
+        for n, arrived_s in self.in_int_fresh.items():
+            self.in_int_written_s[n] = max(now_s, arrived_s)
         self.in_int_fresh.clear()
 
 
