@@ -25,6 +25,10 @@ Variants, side by side in one run:
   plus the stops motion cannot hide: the gripper's switching and, eye-in-hand, the acquisition
   (the camera needs a still arm); detection fully hidden.
 
+The simulated controller charges a program start as its profile says (``program_start_cost``,
+mocks/ur_controller/README.md "Program start cost"): every path ur_rtde uploads starts that
+long after it arrives, as on a real controller; the figure used is printed.
+
 Prints per variant the median cycle time (p90), picks per hour, and c/d and c/a. Goals
 (issue 18): c within 5 % of d, c at most 0.7 of a.
 Run: ``.venv/bin/python benchmarks/cycle_time.py [--cycles 20] [--speed-factor 2]``.
@@ -51,6 +55,7 @@ from benchmarks.run_pipe import Pipe  # noqa: E402
 from handeye_pick.geometry import invert, transform_point, ur_pose_to_matrix  # noqa: E402
 from handeye_pick.hand_eye.files import HandEyeMode, load_hand_eye  # noqa: E402
 from mocks.ur_controller import SimulatedController  # noqa: E402
+from mocks.ur_controller.profiles import DEFAULT_PROFILE, PROFILES  # noqa: E402
 
 HOST = "127.0.0.246"  # not 127.0.0.1: leaves the demo and the tests' addresses alone
 CLI = [sys.executable, "-c", "import sys; from handeye_pick.cli import main; sys.exit(main())"]
@@ -62,6 +67,7 @@ GRIPPER_S = 0.15  # the valve and the cup's vacuum
 BIN_CENTRE_M = np.array([-0.50, -0.25, 0.06])  # the grasp point of a part in the bin, base frame
 # Eye-to-hand: a camera 1.2 m above the base looking straight down over the bin (T_base_cam, mm).
 T_BASE_CAM_MM = "[[0, 1, 0, -500], [1, 0, 0, -250], [0, 0, -1, 1200], [0, 0, 0, 1]]\n"
+SCRIPT_LINES = 1180  # lines of ur_rtde 1.6.5's control script with a short path injected
 PLACES = ["[-0.20, 0.35, 0.10, {d}]", "[-0.30, 0.35, 0.10, {d}]", "[-0.40, 0.35, 0.10, {d}]"]
 
 
@@ -230,7 +236,7 @@ def run_variant(
     """Cycle times (s, real speed) and the controller's motion time per cycle (s, real speed)."""
     blend_mm = 0.0 if variant == "a" else 50.0
     with tempfile.TemporaryDirectory() as tmp, SimulatedController(
-        host=host, tcp_offset=TCP_OFFSET, speed_factor=factor
+        host=host, tcp_offset=TCP_OFFSET, speed_factor=factor, program_start_cost=True
     ) as ctl:
         folder = Path(tmp)
         (folder / "cell.yaml").write_text(cell_yaml(folder, mode, blend_mm, factor, host))
@@ -279,6 +285,12 @@ def main() -> None:
     print(
         f"  transfers 1.0 m/s 3 m/s^2, descents 0.25 m/s, gripper {GRIPPER_S} s, acquisition "
         f"{ACQUISITION_S} s, detection {DETECTION_S} s"
+    )
+    per_line_s = PROFILES[DEFAULT_PROFILE].program_start_s_per_line
+    print(
+        f"  program start cost ({DEFAULT_PROFILE} profile): {per_line_s * 1e3:g} ms a line, about "
+        f"{SCRIPT_LINES * per_line_s:.2f} s for each path's {SCRIPT_LINES}-line upload (an "
+        f"estimate, mocks/ur_controller/README.md)"
     )
     for mode in (Mode("eye-in-hand", True), Mode("eye-to-hand", False)):
         try:

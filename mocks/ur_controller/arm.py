@@ -21,16 +21,13 @@ stops and a new move replacing a running one halt the arm at once.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import NDArray
-from scipy.spatial.transform import Rotation
 
 from mocks.ur_controller import kinematics as kin
 from mocks.ur_controller.blend import BlendedPath
-from mocks.ur_controller.path_script import Waypoint
 
 Vector = NDArray[np.float64]
 
@@ -279,7 +276,7 @@ class Arm:
             distance = translation
         else:
             R_rel = self.T_base_tcp[:3, :3].T @ T_target[:3, :3]
-            distance = float(np.linalg.norm(Rotation.from_matrix(R_rel).as_rotvec()))
+            distance = float(np.linalg.norm(kin.matrix_to_rotvec(R_rel)))
         return self._start(kind, True, distance, speed, accel, q_target, T_target)
 
     def move_joint(self, q_target: Vector, speed: float, accel: float, kind: str) -> Motion:
@@ -291,26 +288,12 @@ class Arm:
         return self._start(kind, False, distance, speed, accel, q_target,
                            self.tcp_from_q(q_target))
 
-    def move_path(self, move: str, waypoints: Sequence[Waypoint]) -> Motion:
-        """Start a blended path (movel: TCP poses, movej: joints) as one motion; raises
-        UnreachableError for a waypoint without IK or outside the joint limits, or a speed or
-        acceleration that is not > 0 (a real controller's runtime error)."""
-        if any(w.speed <= 0.0 or w.accel <= 0.0 for w in waypoints):
-            raise UnreachableError("every path waypoint needs speed and acceleration > 0")
-        q = self.q
-        for w in waypoints:  # joints at each waypoint, each nearest the previous one's
-            target = np.array(w.target)
-            solution = self.ik_tcp(target, q) if move == "movel" else target
-            if solution is None or not kin.within_limits(self.model, solution):
-                raise UnreachableError(f"{move} path waypoint {np.round(target, 6).tolist()} "
-                                       f"is unreachable")
-            q = solution
-        linear = move == "movel"
-        path = BlendedPath(move, self.T_base_tcp if linear else self.q, waypoints,
-                           lambda joints: self.tcp_from_q(joints)[:3, 3])
-        first = waypoints[0]
-        return self._start("movePath", linear, path.length, first.speed, first.accel, q,
-                           self.tcp_from_q(q), path)
+    def start_path(self, path: BlendedPath, q_end: Vector) -> Motion:
+        """Start a blended path planned from where the arm is now (path_plan.py) as one motion
+        ending at joints `q_end` (rad)."""
+        first = path.waypoints[0]
+        return self._start("movePath", path.linear, path.length, first.speed, first.accel, q_end,
+                           self.tcp_from_q(q_end), path)
 
     def planned_times(self, motion: Motion) -> dict[str, float | list[float] | None]:
         """When a path is planned to be done with each waypoint and to end (controller time, s)
@@ -498,7 +481,7 @@ class Arm:
 
 def _twist(T0: Vector, T1: Vector, dt_s: float) -> Vector:
     """Linear (m/s) and angular (rad/s) velocity in base between two poses dt_s apart."""
-    omega = Rotation.from_matrix(T1[:3, :3] @ T0[:3, :3].T).as_rotvec() / dt_s
+    omega = kin.matrix_to_rotvec(T1[:3, :3] @ T0[:3, :3].T) / dt_s
     return np.concatenate([(T1[:3, 3] - T0[:3, 3]) / dt_s, omega])
 
 

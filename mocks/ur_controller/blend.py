@@ -53,13 +53,19 @@ class _Segment:
 
 @dataclass(frozen=True)
 class _Piece:
-    """A straight part of a segment (fractions f0..f1 of it) or a blend at `corner`."""
+    """A straight part of a segment (fractions f0..f1 of it) or a blend at `corner`.
+
+    A blend keeps what every control cycle in it needs, computed once when the path is planned:
+    its Bezier control points (TCP positions in m for movel, joints in rad for movej) and, for
+    movel, the poses where it leaves and joins the segments (4x4 T_base_tcp)."""
 
     segment: int  # index into segments; a blend joins segment and segment + 1
     blend: bool
     f0: float
     f1: float
     table: tuple[float, ...] = ()  # blends: cumulative length at equally spaced u
+    controls: tuple[Vector, Vector, Vector] | None = None  # blends: entry, corner, exit points
+    ends: tuple[Vector, Vector] | None = None  # movel blends: T_base_tcp at entry and at exit
 
 
 class BlendedPath:
@@ -79,6 +85,7 @@ class BlendedPath:
     ):
         self.move = move
         self.linear = move == "movel"
+        self.waypoints = tuple(waypoints)
         self._tcp_position = tcp_position
         self._segments = self._build_segments(start, waypoints)
         exits = self._blend_exits(waypoints)
@@ -200,16 +207,17 @@ class BlendedPath:
         return None
 
     def _blend_piece(self, i: int, leave: float, join: float) -> _Piece:
-        points = [
-            self._bezier(i, leave, join, u / _BLEND_SAMPLES) for u in range(_BLEND_SAMPLES + 1)
-        ]
+        controls = (self._position(i, leave), self._position(i, 1.0), self._position(i + 1, join))
+        points = [_bezier(controls, u / _BLEND_SAMPLES) for u in range(_BLEND_SAMPLES + 1)]
         table = [0.0]
         for p0, p1 in itertools.pairwise(points):
             step = p1 - p0
             table.append(
                 table[-1] + float(np.linalg.norm(step) if self.linear else np.max(np.abs(step)))
             )
-        return _Piece(i, True, leave, join, tuple(table))
+        ends = ((self._on_segment(i, leave), self._on_segment(i + 1, join)) if self.linear
+                else None)
+        return _Piece(i, True, leave, join, tuple(table), controls, ends)
 
     def _min_radius(self, i: int, leave: float, join: float) -> float:
         """Smallest radius of curvature (m) of the blend at waypoint i (movel)."""
@@ -235,13 +243,13 @@ class BlendedPath:
         return segment.start + f * (segment.end - segment.start)
 
     def _position(self, i: int, f: float) -> Vector:
-        """The point blends are built on: TCP position (movel) or joints (movej)."""
-        point = self._on_segment(i, f)
-        return point[:3, 3] if self.linear else point
-
-    def _bezier(self, i: int, leave: float, join: float, u: float) -> Vector:
-        a, c, b = self._position(i, leave), self._position(i, 1.0), self._position(i + 1, join)
-        return (1.0 - u) ** 2 * a + 2.0 * u * (1.0 - u) * c + u * u * b
+        """The point blends are built on: TCP position (movel; on the straight line, so no
+        orientation is interpolated) or joints (movej), a fraction f along segment i."""
+        if not self.linear:
+            return self._on_segment(i, f)
+        segment = self._segments[i]
+        f = min(1.0, max(0.0, f))
+        return (1.0 - f) * segment.start[:3, 3] + f * segment.end[:3, 3]
 
     def point(self, fraction: float) -> Vector:
         """T_base_tcp (movel) or q (movej) at a path fraction in 0..1."""
@@ -256,14 +264,11 @@ class BlendedPath:
             f = piece.f0 + (piece.f1 - piece.f0) * (local / span if span > 0.0 else 1.0)
             return self._on_segment(piece.segment, f)
         u = _inverse_table(piece.table, local)
-        position = self._bezier(piece.segment, piece.f0, piece.f1, u)
-        if not self.linear:
+        assert piece.controls is not None
+        position = _bezier(piece.controls, u)
+        if piece.ends is None:
             return position
-        T = kin.interpolate_pose(
-            self._on_segment(piece.segment, piece.f0),
-            self._on_segment(piece.segment + 1, piece.f1),
-            u,
-        )
+        T = kin.interpolate_pose(piece.ends[0], piece.ends[1], u)
         T[:3, 3] = position
         return T
 
@@ -273,6 +278,12 @@ class BlendedPath:
         distance = fraction * self.length
         done = bisect.bisect_right(self.done_distance, distance + 1e-12)
         return min(done, len(self._segments) - 1)
+
+
+def _bezier(controls: tuple[Vector, Vector, Vector], u: float) -> Vector:
+    """The quadratic Bezier curve through entry a, control point c (the corner) and exit b."""
+    a, c, b = controls
+    return (1.0 - u) ** 2 * a + 2.0 * u * (1.0 - u) * c + u * u * b
 
 
 def _angle(T0: Vector, T1: Vector) -> float:

@@ -20,6 +20,7 @@ from __future__ import annotations
 import ipaddress
 import logging
 import math
+import sys
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -36,6 +37,7 @@ from mocks.ur_controller.gripper import Robotiq2F, RobotiqServer, answer
 from mocks.ur_controller.net import Listener
 from mocks.ur_controller.options import ControllerOptions
 from mocks.ur_controller.outputs import Io, Modes, OutputTable
+from mocks.ur_controller.path_plan import PathPlanner, PlanRequest
 from mocks.ur_controller.path_script import PathSpec, PathSyntaxError, injected_path
 from mocks.ur_controller.profiles import PROFILES, Profile
 from mocks.ur_controller.program import ControlScript, PendantProgram, Registers
@@ -57,6 +59,12 @@ RUNTIME_STOPPED = 1
 RUNTIME_PLAYING = 2
 RUNTIME_PAUSING = 3
 RUNTIME_PAUSED = 4
+GIL_SWITCH_S = 0.0002
+"""The interpreter hands the GIL to a waiting thread after this long (s): well under a control
+cycle, so no other thread of the simulator holds up the control loop or a sender for long."""
+MAX_LAG_S = 0.5
+"""The control loop catches up at most this far behind the wall clock (s): a process frozen for
+longer (SIGSTOP, swapping) resumes with its clock slipped, not with a burst of cycles."""
 
 
 def _vector(values: Sequence[float], what: str) -> Vector:
@@ -94,9 +102,12 @@ class Controller:
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | PendantProgram | None = None
-        # A received program waits this long (controller time) before it runs: (due, offset, path).
+        # A received program waits before it runs (controller time): a fixed time, the profile's
+        # start cost for its length, or not at all. Pending: (due, offset, path, its plan).
         self._program_start_s = options.program_start_s
-        self._pending_program: tuple[float, int, PathSpec | None] | None = None
+        self._program_start_cost = options.program_start_cost
+        self._pending_program: tuple[float, int, PathSpec | None, PlanRequest | None] | None = None
+        self._planner = PathPlanner()
         self._paused = False
         self._robot_mode = ROBOT_MODE_RUNNING
         self._safety_mode = SAFETY_NORMAL
@@ -111,6 +122,7 @@ class Controller:
         self._analog_out = [0.0, 0.0]
         self._analog_io_types = 0
         self._time_s = 0.0
+        self._clock_start_s = time.monotonic()  # wall time of controller time 0 (the loop's)
         self._output_table = OutputTable(self.profile.output_types)
         self._outputs: Mapping[str, object] = {}
         self._stopping = threading.Event()
@@ -137,7 +149,12 @@ class Controller:
     # --- lifetime ---------------------------------------------------------------------------
 
     def start(self) -> Controller:
-        """Start the control loop and listen on the profile's ports; returns when listening."""
+        """Start the control loop and listen on the profile's ports; returns when listening.
+
+        Also shortens this process's GIL switch interval to GIL_SWITCH_S: with Python's default
+        (5 ms) a thread doing long work (the path planner) kept the control loop and the RTDE
+        senders waiting for the interpreter for several control cycles at a time."""
+        sys.setswitchinterval(GIL_SWITCH_S)
         with self.lock:
             if self.profile.control_script_running:
                 self._start_script(0, "started from the pendant (profile " +
@@ -162,6 +179,7 @@ class Controller:
         self._stopping.set()
         if self._loop is not None:
             self._loop.join(timeout=2.0)
+        self._planner.close()
         self._record.close()
         self._motions.close()
 
@@ -252,9 +270,11 @@ class Controller:
 
     def run_program(self, program: str) -> None:
         """Run a program received on 30003; a new program replaces the running one. One whose
-        injected path does not compile is not started (logged, recorded as compileError); with
-        `program_start_s` the program runs that long after it arrived, as a controller takes
-        time to compile and start it."""
+        injected path does not compile is not started (logged, recorded as compileError); its
+        path is planned at once, off the control thread (path_plan.py). With `program_start_s`,
+        or the profile's start cost (`program_start_cost`), the program runs that long after it
+        arrived, as a controller takes time to compile and start it: meanwhile no program runs
+        and the stream goes on."""
         with self.lock:
             if "def rtde_control():" not in program:
                 log.warning("script port: ignoring a program that is not ur_rtde's "
@@ -272,21 +292,36 @@ class Controller:
                 self.stop_program("replaced by a program that does not compile")
                 return
             offset = register_offsets(program)
-            if self._program_start_s <= 0.0:
-                self._start_script(offset, "received on the script port", path)
-                return
             if self._script is not None:
                 self._script.stop("replaced by a new program")
-            self._pending_program = (self._time_s + self._program_start_s, offset, path)
+            arm = self.arm
+            plan = (None if path is None
+                    else self._planner.request(arm.model, arm.q, arm.tcp_offset, path))
+            start_s = self._start_delay_s(program)
+            if start_s <= 0.0:
+                self._start_script(offset, "received on the script port", path, plan)
+                return
+            log.info("rtde_control received (%d lines): starts in %.3f s", program.count("\n"),
+                     start_s)
+            self._pending_program = (self._time_s + start_s, offset, path, plan)
 
-    def _start_script(self, register_offset: int, how: str, path: PathSpec | None = None) -> None:
+    def _start_delay_s(self, program: str) -> float:
+        """Controller time (s) from receiving `program` to running it: program_start_s, or with
+        program_start_cost the profile's cost per line times its lines, at the speed factor."""
+        if not self._program_start_cost:
+            return self._program_start_s
+        lines = program.count("\n")
+        return lines * self.profile.program_start_s_per_line / self.arm.speed_factor
+
+    def _start_script(self, register_offset: int, how: str, path: PathSpec | None = None,
+                      plan: PlanRequest | None = None) -> None:
         if self._script is not None:
             self._script.stop("replaced by a new program")
         self._pending_program = None
         self._paused = False
         self._script = ControlScript(self.registers, self.arm, self._record, register_offset,
                                      self._protective_stop, self._take_refused_move, self._time_s,
-                                     path)
+                                     self._planner, path, plan)
         self._script.ack_delay_s = self._slow_s
         log.info("rtde_control program started (%s)", how)
 
@@ -457,11 +492,12 @@ class Controller:
 
     def _write_registers(self, values: Mapping[str, object]) -> None:
         regs = self.registers
+        arrived_s = (time.monotonic() - self._clock_start_s) // self._cycle_s * self._cycle_s
         for name, value in values.items():
             prefix, _, number = name.rpartition("_")
             if prefix == "input_int_register":
                 regs.in_int[int(number)] = int(_number(value))
-                regs.in_int_fresh.add(int(number))
+                regs.in_int_fresh[int(number)] = arrived_s
             elif prefix == "input_double_register":
                 regs.in_double[int(number)] = _number(value)
             elif prefix == "input_bit_register":
@@ -474,22 +510,27 @@ class Controller:
     # --- the control loop -------------------------------------------------------------------
 
     def _run(self) -> None:
+        """Run control cycles 1, 2, 3, ... each at its own controller time (N periods), none
+        ever skipped. A cycle the machine delays (the process was descheduled) runs as soon as
+        the loop gets the CPU, and the cycles owed after it run back to back, so every cycle's
+        RTDE sample goes out, late but in order; a loop more than MAX_LAG_S behind the wall
+        clock lets its clock slip instead (controller time then runs behind the wall clock)."""
         period_s = self._cycle_s
-        start_s = time.monotonic()
+        self._clock_start_s = time.monotonic()
         cycle = 0
         while not self._stopping.is_set():
-            delay_s = start_s + (cycle + 1) * period_s - time.monotonic()
+            cycle += 1
+            delay_s = self._clock_start_s + cycle * period_s - time.monotonic()
             if delay_s > 0:
                 self._stopping.wait(delay_s)
-            # The cycle due now by the wall clock: late cycles are skipped, never run back to back.
-            due = max(cycle + 1, int((time.monotonic() - start_s) / period_s))
+            elif delay_s < -MAX_LAG_S:
+                self._clock_start_s -= delay_s + MAX_LAG_S  # slip: catch up at most MAX_LAG_S
             with self.lock:
                 try:
-                    self._cycle((due - cycle) * period_s, due * period_s)
+                    self._cycle(period_s, cycle * period_s)
                 except Exception:
                     log.exception("control loop cycle failed")
-            cycle = due
-            self._rtde.cycle_done(due)  # its RTDE packages go out now, as on a real UR
+            self._rtde.cycle_done(cycle)  # its RTDE packages go out now, as on a real UR
 
     def _cycle(self, dt_s: float, time_s: float) -> None:
         self._time_s = time_s
@@ -497,8 +538,8 @@ class Controller:
         self.registers.take_in_writes(time_s)  # a controller applies RTDE inputs at a cycle
         pending = self._pending_program
         if pending is not None and time_s >= pending[0] - 1e-9:
-            self._start_script(pending[1], f"received on the script port, started after "
-                                           f"{self._program_start_s} s", pending[2])
+            self._start_script(pending[1], "received on the script port, started after its "
+                                           "start time", pending[2], pending[3])
         script = self._script
         if (script is not None and self._runtime_state() == RUNTIME_PLAYING
                 and self._safety_mode == SAFETY_NORMAL):
@@ -580,6 +621,9 @@ def _profile_and_model(options: ControllerOptions) -> tuple[Profile, str]:
     if not options.program_start_s >= 0.0 or math.isinf(options.program_start_s):
         raise ValueError(f"Controller: program_start_s must be finite and >= 0, got "
                          f"{options.program_start_s}")
+    if options.program_start_s and options.program_start_cost:
+        raise ValueError("Controller: give program_start_s (a fixed time) or program_start_cost "
+                         "(the profile's cost for the program's length), not both")
     if options.tracking and options.instant:
         raise ValueError("Controller: tracking needs real-time motion (--speed-factor): an "
                          "instant move ends at full speed, far ahead of a lagging arm")

@@ -22,7 +22,6 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.spatial.transform import Rotation
 
 Matrix = NDArray[np.float64]
 """A float64 array: a 4x4 rigid transform or a joint/pose vector, as each signature says."""
@@ -137,11 +136,53 @@ def _transform(T: ArrayLike, operation: str, what: str) -> Matrix:
 # --- pose vectors and transforms ----------------------------------------------------------------
 
 
+def rotvec_to_matrix(rotvec: Matrix) -> Matrix:
+    """Rotation vector (axis times angle, rad) -> 3x3 rotation matrix (Rodrigues' formula).
+
+    Written out in numpy rather than through scipy's Rotation: the control loop converts poses
+    several times per 2 ms cycle, and scipy's per-call overhead alone took most of a cycle."""
+    x, y, z = (float(v) for v in rotvec)
+    angle = math.sqrt(x * x + y * y + z * z)
+    if angle < 1e-8:  # second-order series: exact to double precision this close to zero
+        sin_term, cos_term = 1.0 - angle * angle / 6.0, 0.5 - angle * angle / 24.0
+    else:
+        sin_term, cos_term = math.sin(angle) / angle, (1.0 - math.cos(angle)) / (angle * angle)
+    K = np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+    R: Matrix = np.eye(3) + sin_term * K + cos_term * (K @ K)
+    return R
+
+
+def matrix_to_rotvec(R: Matrix) -> Matrix:
+    """3x3 rotation matrix -> rotation vector (rad), angle in [0, pi], through the unit
+    quaternion taken from the matrix's largest diagonal term (stable for every angle, pi
+    included), its scalar part made >= 0."""
+    trace = R[0, 0] + R[1, 1] + R[2, 2]
+    largest = int(np.argmax([R[0, 0], R[1, 1], R[2, 2], trace]))
+    quat = np.empty(4)  # x, y, z, w
+    if largest == 3:
+        quat[:3] = R[2, 1] - R[1, 2], R[0, 2] - R[2, 0], R[1, 0] - R[0, 1]
+        quat[3] = 1.0 + trace
+    else:
+        i, j, k = largest, (largest + 1) % 3, (largest + 2) % 3
+        quat[i] = 1.0 - trace + 2.0 * R[i, i]
+        quat[j] = R[j, i] + R[i, j]
+        quat[k] = R[k, i] + R[i, k]
+        quat[3] = R[k, j] - R[j, k]
+    quat /= np.linalg.norm(quat)
+    if quat[3] < 0.0:
+        quat = -quat
+    sin_half = float(np.linalg.norm(quat[:3]))
+    angle = 2.0 * math.atan2(sin_half, float(quat[3]))
+    scale = 2.0 + angle * angle / 12.0 if angle < 1e-3 else angle / math.sin(angle / 2.0)
+    result: Matrix = scale * quat[:3]
+    return result
+
+
 def pose_to_matrix(pose: ArrayLike) -> Matrix:
     """UR pose ``[x, y, z, rx, ry, rz]`` (m, rotation vector rad) -> 4x4 transform."""
     p = _vector(pose, 6, "pose_to_matrix", "pose")
     T = np.eye(4)
-    T[:3, :3] = Rotation.from_rotvec(p[3:]).as_matrix()
+    T[:3, :3] = rotvec_to_matrix(p[3:])
     T[:3, 3] = p[:3]
     return T
 
@@ -149,8 +190,7 @@ def pose_to_matrix(pose: ArrayLike) -> Matrix:
 def matrix_to_pose(T: ArrayLike) -> Matrix:
     """4x4 transform -> UR pose ``[x, y, z, rx, ry, rz]`` (m, rad; rotation angle in [0, pi])."""
     arr = _transform(T, "matrix_to_pose", "T")
-    rotvec = Rotation.from_matrix(arr[:3, :3]).as_rotvec()
-    return np.concatenate([arr[:3, 3], rotvec])
+    return np.concatenate([arr[:3, 3], matrix_to_rotvec(arr[:3, :3])])
 
 
 def _invert(T: Matrix) -> Matrix:
@@ -425,10 +465,10 @@ def interpolate_pose(T0: ArrayLike, T1: ArrayLike, s: float) -> Matrix:
     B = _transform(T1, "interpolate_pose", "T1")
     if not 0.0 <= s <= 1.0:
         raise ValueError(f"interpolate_pose: fraction s must be in [0, 1], got {s}")
-    R0 = Rotation.from_matrix(A[:3, :3])
-    relative = R0.inv() * Rotation.from_matrix(B[:3, :3])
+    R0 = A[:3, :3]
+    relative = matrix_to_rotvec(R0.T @ B[:3, :3])
     T = np.eye(4)
-    T[:3, :3] = (R0 * Rotation.from_rotvec(s * relative.as_rotvec())).as_matrix()
+    T[:3, :3] = R0 @ rotvec_to_matrix(s * relative)
     T[:3, 3] = (1.0 - s) * A[:3, 3] + s * B[:3, 3]
     return T
 

@@ -44,6 +44,7 @@ class ControllerOptions:
     part_width_mm: float | None = None  # a part this wide waits at the gripper
     feedback_input: Sequence[int] | None = None  # (output bit, input bit), each 0..17
     program_start_s: float = 0.0  # a program from the script port runs this long after it came
+    program_start_cost: bool = False  # ... or after the profile's start cost for its length
     trace_tcp: bool = False  # each motion record entry lists the TCP pose of every cycle it moved
 
 
@@ -86,6 +87,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--program-start-s", type=float, default=_DEFAULTS.program_start_s,
                         metavar="S", help="a program received on the script port starts S "
                                           "seconds of controller time later (default 0)")
+    parser.add_argument("--program-start-cost", action="store_true",
+                        help="a program received on the script port starts after the profile's "
+                             "start cost for its length (cb3 2 ms a line, e-Series 1 ms a line, "
+                             "at the speed factor); default: at once")
     parser.add_argument("--trace-tcp", action="store_true",
                         help="the motion record lists the target TCP pose of every cycle each "
                              "motion moved (tcp_trace)")
@@ -105,7 +110,8 @@ def from_args(args: argparse.Namespace) -> ControllerOptions:
         allow_non_loopback=args.allow_non_loopback, profile=args.profile,
         tracking=args.tracking, seed=args.seed, motion_record_path=args.record_motions,
         part_width_mm=args.part_width_mm, feedback_input=args.feedback_input,
-        program_start_s=args.program_start_s, trace_tcp=args.trace_tcp,
+        program_start_s=args.program_start_s, program_start_cost=args.program_start_cost,
+        trace_tcp=args.trace_tcp,
     )
 
 
@@ -142,6 +148,8 @@ def to_argv(options: ControllerOptions) -> list[str]:
         argv += ["--feedback-input", *(str(int(b)) for b in o.feedback_input)]
     if o.program_start_s:
         argv += ["--program-start-s", repr(float(o.program_start_s))]
+    if o.program_start_cost:
+        argv.append("--program-start-cost")
     if o.trace_tcp:
         argv.append("--trace-tcp")
     return argv

@@ -15,6 +15,14 @@ from dataclasses import dataclass
 from mocks.ur_controller import fields
 from mocks.ur_controller.kinematics import CB3_MODELS, MODELS
 
+CB3_START_S_PER_LINE = 0.002
+"""Time a CB3 takes to stop a program and start a received one, per line of the new program
+(s): a public field measurement on a CB3, 344 lines about 0.7 s and 204 lines about 0.4 s,
+about 2 ms a line either way (README.md, "Program start cost")."""
+E_SERIES_START_S_PER_LINE = 0.001
+"""The same on e-Series and PolyScope X: no public figure was found; an estimate, half the
+CB3's, for a newer control box. Measure it on the robot (benchmarks/path_start.py)."""
+
 
 @dataclass(frozen=True)
 class Profile:
@@ -29,6 +37,7 @@ class Profile:
     script_port: bool  # programs accepted on 30003
     control_script_running: bool  # ur_rtde's control script runs from the start
     remote_control_mode: bool  # local/remote control exists (e-Series 5.6+)
+    program_start_s_per_line: float  # start cost of a received program, per line (README.md)
     output_types: dict[str, str]
     input_types: dict[str, str]
 
@@ -40,12 +49,14 @@ class Profile:
 def _profile(name: str, version: tuple[int, int, int, int], cycle_hz: float,
              models: tuple[str, ...], default_model: str, *, dashboard: bool,
              control_script_running: bool) -> Profile:
+    cb3 = version[0] == 3
     short = version[:3]
     return Profile(
         name=name, version=version, cycle_hz=cycle_hz, models=models,
         default_model=default_model, dashboard=dashboard, script_port=dashboard,
         control_script_running=control_script_running,
         remote_control_mode=dashboard and short >= (5, 6, 0),
+        program_start_s_per_line=CB3_START_S_PER_LINE if cb3 else E_SERIES_START_S_PER_LINE,
         output_types=fields.types_for(fields.OUTPUTS, short),
         input_types=fields.types_for(fields.INPUTS, short),
     )

@@ -16,7 +16,9 @@ and is logged loudly: the client sees `runtime_state` leave PLAYING and returns 
 waiting 300 s for an answer that never comes.
 
 Command 45 (MOVE_PATH) runs the path ur_rtde injected into the uploaded script (path_script.py)
-as one motion, in the move thread when async; like the script, it writes the progress word with
+as one motion, in the move thread when async. The path is planned off the control thread
+(path_plan.py): the command waits, as a synchronous move does, until its plan is ready, and the
+path starts at the first cycle after that; the script writes the progress word with
 the index of each waypoint as the arm starts heading for it (signal_async_progress(i)), and only
 the async thread writes "finished" at the end: after a synchronous path the word still reads
 running with the last index, as on a real controller.
@@ -39,6 +41,7 @@ import numpy as np
 
 from mocks.ur_controller import kinematics as kin
 from mocks.ur_controller.arm import Arm, Motion, UnreachableError, Vector
+from mocks.ur_controller.path_plan import PathPlanner, PlanRequest
 from mocks.ur_controller.path_script import PathSpec
 from mocks.ur_controller.record import CommandRecord
 
@@ -65,14 +68,16 @@ class Registers:
         self.in_bits = [False] * 128
         self.out_bits = [False] * 128
         # Controller time of the cycle that took in the last client write to each input int
-        # register (the watchdog's "update"), and the registers written since the last cycle.
+        # register (the watchdog's "update"), and the registers written since the last cycle,
+        # each with the controller time by the wall clock when the write arrived.
         self.in_int_written_s = [0.0] * 48
-        self.in_int_fresh: set[int] = set()
+        self.in_int_fresh: dict[int, float] = {}
 
     def take_in_writes(self, now_s: float) -> None:
-        """Start of a cycle: inputs written since the last one count as updated now."""
-        for n in self.in_int_fresh:
-            self.in_int_written_s[n] = now_s
+        """Start of a cycle: inputs written since the last one count as updated now, or when
+        they arrived if that is later (a late loop catching up runs cycles stamped before it)."""
+        for n, arrived_s in self.in_int_fresh.items():
+            self.in_int_written_s[n] = max(now_s, arrived_s)
         self.in_int_fresh.clear()
 
 
@@ -83,10 +88,14 @@ class ControlScript:
 
     def __init__(self, registers: Registers, arm: Arm, record: CommandRecord, reg_offset: int,
                  protective_stop: Callable[[str], None], take_refused_move: Callable[[], bool],
-                 now_s: float, path: PathSpec | None = None):
+                 now_s: float, planner: PathPlanner, path: PathSpec | None = None,
+                 plan: PlanRequest | None = None):
         self._reg = registers
         self._started_s = now_s
         self._path = path  # injected at `# inject move path`, run by command 45
+        self._planner = planner
+        self._plan = plan  # the path's plan, asked for when the program arrived
+        self._path_command: tuple[PlanRequest, dict[str, Any]] | None = None  # 45, planning
         self._arm = arm
         self._commands = record
         self._off = reg_offset
@@ -147,7 +156,10 @@ class ControlScript:
             self._async_motion = None  # the move thread ran to its end or was stopped
             self._write_async_word(-1)
         if self._blocked_until_s is not None:
-            self._finish_command(now_s, self._blocked_until_s)
+            if self._path_command is not None:
+                self._start_planned_path()
+            if self.running:
+                self._finish_command(now_s, self._blocked_until_s)
             return
         cmd = self._in_int(0)
         if cmd == STOP_SCRIPT and self._reg.in_int_written_s[self._off] <= self._started_s:
@@ -170,7 +182,10 @@ class ControlScript:
                 self._finish_command(now_s, self._blocked_until_s)
 
     def _finish_command(self, now_s: float, due_s: float) -> None:
-        """Write DONE once a synchronous motion has ended and `due_s` (fault slow) has passed."""
+        """Write DONE once a path's plan is ready, a synchronous motion has ended and `due_s`
+        (fault slow) has passed."""
+        if self._path_command is not None:
+            return  # command 45 waits for its plan
         if self._blocking_motion is not None and self._arm.motion is self._blocking_motion:
             return  # still inside a synchronous movel/movej
         if now_s < due_s:
@@ -188,6 +203,7 @@ class ControlScript:
             log.info("rtde_control program stopped: %s", reason)
         self.running = False
         self._path_motion = None
+        self._path_command = None
         if self._async_motion is not None:
             self._async_motion = None
             self._write_async_word(-1)
@@ -357,14 +373,35 @@ class ControlScript:
                 self._write_async_word(0)
                 self._write_async_word(-1)
             return
-        motion = self._arm.move_path(path.move, path.waypoints)
+        arm = self._arm
+        plan = self._plan
+        if plan is None or not plan.fits(arm.q, arm.tcp_offset):
+            plan = self._plan = self._planner.request(arm.model, arm.q, arm.tcp_offset, path)
+        self._path_command = (plan, entry)
+        self._start_planned_path()
+
+    def _start_planned_path(self) -> None:
+        """Start command 45's path if its plan is ready (else try again next cycle). A path that
+        cannot run (a waypoint without IK, a zero speed) stops the program, as a URScript runtime
+        error does."""
+        assert self._path_command is not None
+        plan, entry = self._path_command
+        if not plan.ready:
+            return
+        self._path_command = None
+        try:
+            planned = plan.result()
+        except UnreachableError as exc:
+            self.stop(f"command {MOVE_PATH}: {exc}")
+            return
+        motion = self._arm.start_path(planned.path, planned.q_end)
         assert motion.path is not None
         if motion.path.skipped:
             log.warning("movePath: blends at waypoints %s skipped (they would overlap a "
                         "neighbour's or not fit): the arm stops there", list(motion.path.skipped))
         self._record({**entry, "skipped_blends": list(motion.path.skipped),
                       **self._arm.planned_times(motion)})
-        if is_async:
+        if entry["async"]:
             self._async_motion = motion
             self._write_async_word(0)  # the move thread: signal_async_operation_started()
         else:

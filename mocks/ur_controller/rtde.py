@@ -5,8 +5,8 @@ Wire format (UR's RTDE guide; docs/ur-rtde.md, "RTDE wire format"): every packag
 exactly one reply each, at once; text messages (M) from a client are logged, never answered.
 After S a sender thread streams the output recipe at the requested frequency, at most the
 control loop's: like a real controller's, each data package leaves right after the control cycle
-that produced it. Field names and types are the profile's (fields.py); any other name is
-answered NOT_FOUND.
+that produced it, one package for every cycle due, none skipped. Field names and types are the
+profile's (fields.py); any other name is answered NOT_FOUND.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ log = logging.getLogger("mocks.ur_controller")
 
 RTDE_PORT = 30004
 PROTOCOL_VERSION = 2  # the only RTDE protocol version served; any other request is refused
-RECENT_CYCLES = 32  # published cycles kept for late senders (64 ms at 500 Hz)
+RECENT_CYCLES = 500  # published cycles kept for late senders (1 s at 500 Hz, 4 s at 125 Hz)
 STREAM_FALLBACK_S = 0.1
 """A sender that sees no control cycle this long after one was due sends the latest outputs
 anyway: a starved control loop slows the stream but never pauses it towards ur_rtde's 2.5 s."""
@@ -259,17 +259,23 @@ class RtdeServer:
             self._cycle_done.wait_for(
                 lambda: self._cycle > after or conn.closed.is_set(), timeout=timeout_s
             )
-            return [(n, outputs) for n, outputs in self._recent if n > after]
+            newer: list[tuple[int, Mapping[str, object]]] = []
+            for n, outputs in reversed(self._recent):  # newest first: stop at the first seen
+                if n <= after:
+                    break
+                newer.append((n, outputs))
+            newer.reverse()
+            return newer
 
     def _stream(self, conn: _Connection) -> None:
         """Send the output recipe of every Nth control cycle until the connection closes.
 
         N = control loop frequency / requested frequency, rounded, at least 1: on e-Series a
         500 Hz client gets every cycle, a 125 Hz one the cycles whose number is a multiple of 4.
-        A package whose cycle was skipped (the loop ran late) is skipped too, as a busy real
-        controller skips packages; a late sender sends the newest due cycle, never a cycle out of
-        step. With no cycle at all for a while it resends the latest outputs (see
-        STREAM_FALLBACK_S).
+        A sender that fell behind (descheduled, or the loop ran cycles back to back to catch up)
+        sends every due cycle it missed, oldest first, in one write: each package keeps its own
+        timestamp and none is skipped while the sender is less than RECENT_CYCLES behind. With
+        no cycle at all for a while it resends the latest outputs (see STREAM_FALLBACK_S).
         """
         cycle_hz = self._profile.cycle_hz
         every = max(1, round(cycle_hz / conn.frequency_hz))
@@ -279,19 +285,20 @@ class RtdeServer:
             new = self._wait_for_cycle(conn, seen, timeout_s)
             if conn.closed.is_set():
                 return
-            due = [outputs for n, outputs in new if n % every == 0]
             if new:
                 seen = new[-1][0]
-                if not due:
-                    continue
-                outputs = due[-1]
+                due = [outputs for n, outputs in new if n % every == 0]
             else:
-                outputs = self._backend.latest_outputs()  # no cycle came: the loop is starved
+                due = [self._backend.latest_outputs()]  # no cycle came: the loop is starved
             recipe = conn.output
-            if recipe is None or not conn.streaming.is_set() or self._backend.stream_stalled():
+            if (not due or recipe is None or not conn.streaming.is_set()
+                    or self._backend.stream_stalled()):
                 continue
-            body = recipe.struct.pack(1, *flatten([outputs[name] for name in recipe.names]))
+            data = b"".join(
+                package(b"U", recipe.struct.pack(1, *flatten([out[name] for name in recipe.names])))
+                for out in due
+            )
             try:
-                conn.send(package(b"U", body))
+                conn.send(data)
             except OSError:
                 return

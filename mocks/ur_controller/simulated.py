@@ -103,6 +103,7 @@ class SimulatedController:
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
 
+
     # --- requests ---------------------------------------------------------------------------
 
     def inject(self, spec: str) -> None:

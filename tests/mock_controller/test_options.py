@@ -23,7 +23,7 @@ CASES = [
         program_start_s=0.25, trace_tcp=True,
     ),
     ControllerOptions(initial_flange_pose=(-0.4, -0.1, 0.4, 3.1, 0.0, 0.0), instant=True,
-                      profile="polyscope-x"),
+                      profile="polyscope-x", program_start_cost=True),
 ]
 
 
