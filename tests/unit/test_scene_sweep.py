@@ -239,12 +239,10 @@ class _Case:
 
 
 @st.composite
-def _pick_and_place(
-    draw: st.DrawFn,
-) -> tuple[SceneConfig, tuple[ToolShape, ...], dict[str, object]]:
-    """A bin with thin walls around the origin, a part in it, a place up to 1.3 m away (turned
-    and tilted), and thin plates and posts near the transfer between them; blended corners
-    or stops."""
+def _pick_and_place(draw: st.DrawFn) -> _Case:
+    """A bin with thin walls around the origin, a part in it, a place 0.4 to 1.6 m away (turned
+    and tilted, so the transfer may run faster than 1 m per unit of its piece), and thin plates
+    and posts near the transfer between them; blended corners or stops."""
     part_mm = (
         draw(st.floats(20.0, 60.0)),
         draw(st.floats(20.0, 60.0)),
