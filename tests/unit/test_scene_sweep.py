@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import fcl
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -175,26 +176,66 @@ def test_a_release_without_a_set_down_sweeps_the_tool_alone_after_it() -> None:
         ("drop", True),
         ("leave", True),
     ]
+    # The part rests on the fixture as it lifts off: touching, not a hair's breadth into it.
+    assert results[2].detail == (
+        "clear: closest the held part at least 0.0 mm from box 'fixture' (clearance 5 mm)"
+    )
 
 
 # --- a near miss: where its scan found the closest point --------------------------------------
 
 
-def test_a_near_miss_refusal_gives_the_closest_point_its_scan_found() -> None:
-    """The probe passes a post turned 45 degrees whose edge comes 3 mm from it at mid-move. The
-    sweep stops where the probe first comes within the clearance (over 5 mm from the post, before
-    mid-move); the refusal scans the move and says where it came closest and how close: 3.0 mm at
-    50 %."""
-    corner_y = 0.005 + 0.003  # the probe's side face at y 5 mm, the post's edge 3 mm beyond
+@pytest.mark.parametrize(
+    ("gap_m", "passed", "detail"),
+    [
+        (
+            0.003,
+            False,
+            "tool 'probe' would pass 3.0 mm from box 'post' at 50 % of the move to pass, "
+            "closer than the 5 mm it must keep",
+        ),
+        (
+            0.0053,
+            False,
+            "tool 'probe' would pass 5.3 mm from box 'post' at 50 % of the move to "
+            "pass, less than 0.5 mm beyond the 5 mm it must keep",
+        ),
+        (
+            0.0064,
+            True,
+            "clear: closest tool 'probe' at least 6.4 mm from box 'post' (clearance 5 mm)",
+        ),
+    ],
+    ids=["within the clearance", "within its last half millimetre", "clear"],
+)
+def test_a_near_miss_refusal_gives_the_closest_point_its_scan_found(
+    gap_m: float, passed: bool, detail: str
+) -> None:
+    """The probe passes a post turned 45 degrees whose edge comes ``gap_m`` from it at mid-move.
+    Within the clearance (or its last 0.5 mm, where the sweep cannot prove it kept it) the sweep
+    stops where the probe first comes that close, before mid-move; the refusal scans the move
+    and says where it came closest and how close. Farther, the move passes and says how close
+    it came."""
+    corner_y = 0.005 + gap_m  # the probe's side face at y 5 mm, the post's edge gap_m beyond
     turned = rotation_from_euler([0.0, 0.0, 45.0], "xyz", "deg")
     post = SceneBox(
         "post", (20.0, 20.0, 200.0), _at(0.0, corner_y + 0.01 * math.sqrt(2), 0.5, turned)
     )
     check = _check((post,), clearance_mm=5.0)
     results = check.check_tool([Move("pass", _at(0.1, 0.0, 0.5))], _at(-0.1, 0.0, 0.5))
-    assert _failed(results).detail == (
-        "tool 'probe' would pass 3.0 mm from box 'post' at 50 % of the move to pass, closer "
-        "than the 5 mm it must keep"
+    assert results == [CheckResult("collision", "pass", passed, detail)]
+
+
+def test_the_first_look_at_a_grasp_says_it_is_at_the_end_of_the_descent() -> None:
+    """An alternative's first look stands the tool at its grasp: a refusal there is at 100 %
+    of the grasp descent."""
+    check = _check((FIXTURE,), clearance_mm=5.0)
+    refusal = check.descent_refusal(_at(0.0, 0.0, 0.3), _at(0.0, 0.0, 0.045))
+    assert refusal == CheckResult(
+        "collision",
+        "grasp",
+        False,
+        "tool 'probe' would come 10 mm into box 'fixture' at 100 % of the grasp descent",
     )
 
 
