@@ -11,6 +11,7 @@ import itertools
 import json
 import signal
 import struct
+import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ from mcap.stream_reader import StreamReader
 from mcap_protobuf.decoder import DecoderFactory
 
 from handeye_pick.geometry import ur_pose_to_matrix
+from tests.integration import test_run_loop
 from tests.integration.test_pick_cli import TCP_OFFSET, audit_records
 from tests.integration.test_run_loop import (
     OBJECT_BASE_M,
@@ -166,21 +168,34 @@ def test_a_recorded_cycle_reads_back_as_the_cell_saw_it(
     np.testing.assert_allclose(points, cloud_mm[::5] / 1000.0, rtol=1e-6)
 
 
-def test_a_killed_recorder_leaves_a_file_that_reads_up_to_its_last_chunk(
-    sim_controller: SimFactory, tmp_path: Path
+# ``handeye-pick run`` with the recording's once-a-second flush put off for the whole session:
+# only the chunk that each audit record ends can bring that record into the file.
+NO_TIMER_CLI = [
+    sys.executable,
+    "-c",
+    "import sys; from handeye_pick.record import publisher; publisher.REST_PERIOD_S = 3600.0; "
+    "from handeye_pick.cli import main; sys.exit(main())",
+]
+
+
+def test_a_recorder_killed_right_after_an_audit_record_keeps_it(
+    sim_controller: SimFactory, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    """Every audit record ends an MCAP chunk: SIGKILLed right after its last record (its
+    once-a-second flush put off), the file reads back, without its footer, up to that record."""
+    monkeypatch.setattr(test_run_loop, "CLI", NO_TIMER_CLI)
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     record = tmp_path / "killed.mcap"
     with loop(loop_config(tmp_path, ctl.host), "--record", str(record)) as run:
         assert run.ask({"id": "m", "op": "move", "pose": "home"})["ok"]
         assert run.ask({"id": "a", "op": "move", "pose": "aside"})["ok"]
-        # The recorder writes from its own thread and closes a chunk at least once a second:
-        # wait (bounded) until every audit record is in a complete chunk, then kill.
+        # The recorder writes from its own thread: wait (bounded) for the chunk the last audit
+        # record ends, then kill.
         audited = len(audit_records(tmp_path))
         deadline = time.monotonic() + 20.0
         while _readable_topics(record).count("/cell/audit") < audited:
-            assert time.monotonic() < deadline, "the audit records never reached a chunk"
-            time.sleep(0.1)
+            assert time.monotonic() < deadline, "the last audit record never ended a chunk"
+            time.sleep(0.05)
         run.process.send_signal(signal.SIGKILL)
         run.process.wait()
     with record.open("rb") as file, pytest.raises(McapError):

@@ -133,6 +133,43 @@ def test_a_corner_gets_the_smallest_of_its_limits() -> None:
     assert with_blends(short, start, 0.05, 0.06)[0].blend_m == 0.0  # type: ignore[union-attr]
 
 
+def test_the_ascent_from_a_grasp_keeps_its_first_straight_mm_straight() -> None:
+    # A 30 mm lift-off, then over: 45 % of it would be 13.5 mm, but 20 mm of it stay straight
+    # along the tool axis: 10 mm are left to round.
+    steps: list[Step] = [
+        Move("grasp", _at(0, 0, 0.1), slow=True),
+        Grip(close=True),
+        Move("retreat", _at(0, 0, 0.13)),
+        Move("over", _at(0.3, 0, 0.13)),
+    ]
+    rounded = with_blends(steps, _at(0, 0, 0.2), 0.02, 0.02)
+    assert rounded[2].blend_m == pytest.approx(0.01)  # type: ignore[union-attr]
+
+
+@pytest.mark.parametrize(
+    ("blend_mm", "radius_mm"),
+    [(0.5, 0.5), (0.4, 0.0)],
+    ids=["half a millimetre rounds", "less is a stop"],
+)
+def test_a_corner_under_half_a_millimetre_is_a_stop(blend_mm: float, radius_mm: float) -> None:
+    steps: list[Step] = [Move("a", _at(0.3, 0, 0.3)), Move("b", _at(0.3, 0.3, 0.3))]
+    rounded = with_blends(steps, _at(0, 0, 0.3), blend_mm / 1000.0, 0.02)
+    assert rounded[0].blend_m == radius_mm / 1000.0  # type: ignore[union-attr]
+
+
+def test_corners_after_a_movej_are_blended_too() -> None:
+    # Where the moveJ ends is not known, so the first moveL after it is a stop; the next is a
+    # corner like any other.
+    steps: list[Step] = [
+        JointMove("home", (0.0, -1.57, 1.57, -1.57, -1.57, 0.0)),
+        Move("a", _at(0, 0, 0.3)),
+        Move("b", _at(0.3, 0, 0.3)),
+        Move("c", _at(0.3, 0.3, 0.3)),
+    ]
+    rounded = with_blends(steps, _at(0, 0, 0.5), 0.02, 0.02)
+    assert [getattr(s, "blend_m", None) for s in rounded] == [None, 0.0, 0.02, 0.0]
+
+
 # --- the room a corner needs ------------------------------------------------------------------
 
 
@@ -143,6 +180,9 @@ def test_a_corner_gets_the_smallest_of_its_limits() -> None:
         ([1, 0, 0], [0, 0, -1], [1, 0, 1]),  # over and down: the vertical x-z plane
         ([1, 0, 0], [2, 0, 0], [1, 1, 1]),  # in one line: no plane, the whole ball
         ([1, 0, 0], [-1, 0, 0], [1, 1, 1]),  # straight back
+        ([0.1, 0, 0], [0.1, -1e-6, 0], [1, 1, 0]),  # 0.0006 degrees off a line: a plane still
+        # In one line however short (their product's threshold underflows to 0): the ball.
+        ([0, 0, 2e-160], [0, 0, 2e-160], [1, 1, 1]),
     ],
 )
 def test_a_corner_sweeps_the_disc_of_its_plane(
@@ -159,7 +199,7 @@ def test_every_point_of_the_disc_lies_within_the_extent(
     incoming, outgoing = np.array(a), np.array(b)
     normal = np.cross(incoming, outgoing)
     scale = np.linalg.norm(incoming) * np.linalg.norm(outgoing)
-    if scale == 0.0 or np.linalg.norm(normal) < COLLINEAR_SINE * scale:
+    if scale == 0.0 or np.linalg.norm(normal) <= COLLINEAR_SINE * scale:
         return  # in one line: the whole ball, above
     u = incoming / np.linalg.norm(incoming)
     v = np.cross(normal / np.linalg.norm(normal), u)

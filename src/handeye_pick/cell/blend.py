@@ -111,7 +111,7 @@ def corner_extent_m(incoming: Vector, outgoing: Vector, radius_m: float) -> Vect
     scale = float(np.linalg.norm(incoming)) * float(np.linalg.norm(outgoing))
     normal = np.cross(incoming, outgoing)
     length = float(np.linalg.norm(normal))
-    if scale == 0.0 or length < COLLINEAR_SINE * scale:
+    if scale == 0.0 or length <= COLLINEAR_SINE * scale:  # <=: the product may underflow to 0
         return np.full(3, radius_m, dtype=np.float64)
     unit_normal = normal / length
     return np.asarray(
