@@ -31,12 +31,14 @@ def test_io_setters_land_in_the_io_state(
         snap = ctl.snapshot()
         assert snap.tool_digital_out == 1 << 1
         assert snap.configurable_digital_out == 1 << 2
-        wait_for(lambda: receive.getDigitalOutState(5))
+        # The receive stream shows them a sample or more later, each setter's in its own
+        # sample: wait for the last one's (the analog output), then read them all together.
+        wait_for(lambda: receive.getStandardAnalogOutput1() == pytest.approx(0.25))
+        assert receive.getDigitalOutState(5)
         assert not receive.getDigitalOutState(3)
         assert receive.getDigitalOutState(8 + 2)  # configurable outputs are bits 8-15
         assert receive.getDigitalOutState(16 + 1)  # tool outputs are bits 16-17
         assert receive.getTargetSpeedFraction() == pytest.approx(0.4)
-        assert receive.getStandardAnalogOutput1() == pytest.approx(0.25)
     finally:
         receive.disconnect()
         io.disconnect()  # sends P and blocks until it is answered
