@@ -72,12 +72,16 @@ class Registers:
         # each with the controller time by the wall clock when the write arrived.
         self.in_int_written_s = [0.0] * 48
         self.in_int_fresh: dict[int, float] = {}
+        # Writes taken in per input int register: whether a value came before or after a
+        # moment, which the stamps above cannot say while a late loop catches up.
+        self.in_int_writes = [0] * 48
 
     def take_in_writes(self, now_s: float) -> None:
         """Start of a cycle: inputs written since the last one count as updated now, or when
         they arrived if that is later (a late loop catching up runs cycles stamped before it)."""
         for n, arrived_s in self.in_int_fresh.items():
             self.in_int_written_s[n] = max(now_s, arrived_s)
+            self.in_int_writes[n] += 1
         self.in_int_fresh.clear()
 
 
@@ -91,7 +95,7 @@ class ControlScript:
                  now_s: float, planner: PathPlanner, path: PathSpec | None = None,
                  plan: PlanRequest | None = None):
         self._reg = registers
-        self._started_s = now_s
+        self._writes_at_start = registers.in_int_writes[reg_offset]
         self._path = path  # injected at `# inject move path`, run by command 45
         self._planner = planner
         self._plan = plan  # the path's plan, asked for when the program arrived
@@ -162,7 +166,7 @@ class ControlScript:
                 self._finish_command(now_s, self._blocked_until_s)
             return
         cmd = self._in_int(0)
-        if cmd == STOP_SCRIPT and self._reg.in_int_written_s[self._off] <= self._started_s:
+        if cmd == STOP_SCRIPT and self._reg.in_int_writes[self._off] == self._writes_at_start:
             # The 255 that stopped the previous program: ur_rtde clears it before it uploads
             # this one, and on a controller the clear always lands while the upload compiles.
             return
