@@ -258,13 +258,17 @@ def test_a_client_that_goes_silent_mid_path_is_stopped_by_the_watchdog(
     assert motion["end"].startswith("program stopped: RTDE watchdog"), motion
     assert motion["watchdog_min_frequency_hz"] == pytest.approx(1.0 / TEST_WATCHDOG_S)
     assert motion["end_t"] - motion["watchdog_last_update_t"] <= TEST_WATCHDOG_S + 0.005
-    # Where it stopped: at most the window (and a cycle) at the path's top speed from where it
-    # was when the client froze (a program stop halts at once: no braking distance), and far
+    # Where it stopped: no farther from where it was when the client froze than the path's top
+    # speed covers until the stop (a program stop halts at once: no braking distance), a stop
+    # within the window of the client's last write (asserted above; a simulator running late
+    # stamps that write by its arrival, a few cycles after the frozen snapshot's time), and far
     # from the grasp at the path's end.
     at = np.array(frozen["at"].tcp_pose[:3])
     stopped = np.array(ctl.snapshot().tcp_pose[:3])
     top_speed_mps = 0.25 * 0.5  # the config's speed at the simulator's speed factor
-    assert np.linalg.norm(stopped - at) <= top_speed_mps * (TEST_WATCHDOG_S + 0.01) + 0.002
+    moving_s = motion["end_t"] - frozen["at"].time_s
+    assert moving_s <= TEST_WATCHDOG_S + 0.1, moving_s
+    assert np.linalg.norm(stopped - at) <= top_speed_mps * (moving_s + 0.002) + 0.002
     grasp = _targets(tmp_path)["grasp"]
     assert np.linalg.norm(stopped - grasp) > 0.05, stopped
 
