@@ -6,7 +6,7 @@ Times are ISO 8601 in the report's zone, with its offset; durations are seconds.
 
 from __future__ import annotations
 
-from handeye_pick.report.shift import Fault, ShiftReport
+from handeye_pick.report.shift import Fault, ShiftReport, counted
 
 _ENDED_BY = {
     "resume": " until resume",
@@ -99,7 +99,7 @@ def report_text(report: ShiftReport) -> str:
         f"abandoned {report.abandoned}",
         f"  faults {report.faults}"
         + (f" ({report.connect_faults} failing to connect)" if report.connect_faults else "")
-        + f", stops {report.stops} ({_count(report.stop_requests, 'stop request')}, "
+        + f", stops {report.stops} ({counted(report.stop_requests, 'stop request')}, "
         f"{report.interrupts} Ctrl-C or SIGTERM), halts {report.halts} "
         f"(halted {_duration(report.halted_s)}, {100.0 * report.halted_share:.1f} % of the time), "
         f"refused while halted {report.halted_refusals}, resumes {report.resumes} "
@@ -115,9 +115,9 @@ def report_text(report: ShiftReport) -> str:
     if report.hours:
         lines.append("  picks per hour:")
         lines += [
-            f"    {_clock(report, h.start)}  {_count(h.picks, 'pick', 5):11}  "
-            f"{_count(h.cycles, 'outcome', 5):14}"
-            + (f"  {_count(h.faults, 'fault', 5)}" if h.faults else "")
+            f"    {_clock(report, h.start)}  {counted(h.picks, 'pick', 5):11}  "
+            f"{counted(h.cycles, 'outcome', 5):14}"
+            + (f"  {counted(h.faults, 'fault', 5)}" if h.faults else "")
             for h in report.hours
         ]
     if report.fault_list:
@@ -193,11 +193,6 @@ def _iso(report: ShiftReport, t: float | None) -> str | None:
 
 def _clock(report: ShiftReport, t: float | None) -> str:
     return "-" if t is None else report.local(t).strftime("%Y-%m-%d %H:%M:%S %z")
-
-
-def _count(n: int, noun: str, width: int = 1) -> str:
-    """``n`` (right-aligned in ``width``) and ``noun``, plural unless ``n`` is 1."""
-    return f"{n:{width}d} {noun}" + ("s" if n != 1 else "")
 
 
 def _duration(seconds: float) -> str:

@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from handeye_pick.errors import InputError
-from handeye_pick.report.shift import ShiftReport
+from handeye_pick.report.shift import ShiftReport, counted
 
 if TYPE_CHECKING:
     from matplotlib.axes import Axes
@@ -38,9 +38,9 @@ def render_report(report: ShiftReport, path: Path) -> None:
     _cycle_times(fig.add_subplot(grid[:, 1]), report)
     statuses = report.statuses
     fig.suptitle(
-        f"{report.path.name}: {report.cycles} pick outcomes, {statuses['placed']} placed, "
-        f"{statuses['picked']} picked, {statuses['missed']} missed, "
-        f"{statuses['no-candidate']} no candidate  |  {report.faults} faults, "
+        f"{report.path.name}: {counted(report.cycles, 'pick outcome')}, "
+        f"{statuses['placed']} placed, {statuses['picked']} picked, {statuses['missed']} missed, "
+        f"{statuses['no-candidate']} no candidate  |  {counted(report.faults, 'fault')}, "
         f"halted {100.0 * report.halted_share:.1f} % of the time",
         fontsize=13,
     )

@@ -465,3 +465,9 @@ def _operation(record: dict[str, object]) -> str:
 
 def _optional_str(value: object) -> str | None:
     return value if isinstance(value, str) else None
+
+
+def counted(n: int, noun: str, width: int = 1) -> str:
+    """``n`` (right-aligned in ``width``) and ``noun``, plural unless ``n`` is 1: how the text
+    and the picture count."""
+    return f"{n:{width}d} {noun}" + ("s" if n != 1 else "")
