@@ -176,6 +176,20 @@ def test_status_without_an_answer_exits_4_in_one_line(
     assert result.returncode == 4, result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
     assert "RTDE port 30004" in result.stderr
+    assert "check the address" in result.stderr
+
+
+def test_status_of_a_host_that_accepts_and_never_answers_exits_4_with_the_same_advice(
+    tmp_path: Path, loopback_host: str
+) -> None:
+    """A hung controller or another device at the address: the connection is taken and nothing
+    comes back. Bounded, one line, and the same advice as an address where nothing listens."""
+    with socket.create_server((loopback_host, 30004)):
+        result = cli("status", "--quiet", "--config", str(write_config(tmp_path, loopback_host)))
+    assert result.returncode == 4, result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+    assert "RTDE port 30004 (timed out)" in result.stderr
+    assert "check the address" in result.stderr
 
 
 def test_status_of_polyscope_x_reads_rtde_alone(sim_controller: SimFactory, tmp_path: Path) -> None:

@@ -172,7 +172,8 @@ def _rtde(host: str) -> Iterator[socket.socket]:
             yield sock
     except (OSError, _Protocol, struct.error) as exc:
         raise RobotConnectionError(
-            f"cell {host}: could not read RTDE port {RTDE_PORT} ({exc or type(exc).__name__})"
+            f"cell {host}: could not read RTDE port {RTDE_PORT} ({exc or type(exc).__name__}): "
+            "check the address, the network cable and that the controller is booted"
         ) from exc
 
 
