@@ -222,7 +222,10 @@ class Child:
             self.end()
             return
         try:
-            self.call("close")
+            # What became of the session's control script (worker.py ``_end_program``): for the
+            # debug log; a script left playing is stopped by its watchdog either way.
+            log.debug("closing the ur_rtde session on %s: control script %s", self.host,
+                      self.call("close"))
         except RobotError as exc:
             log.warning("closing the ur_rtde session on %s: %s", self.host, exc)
         self.end(grace_s=CLOSE_GRACE_S)
