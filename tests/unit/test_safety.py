@@ -4,15 +4,20 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 from numpy.typing import NDArray
 
+from handeye_pick.config.hand_eye import calibration_from_config
+from handeye_pick.config.load import load_config
 from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
+from handeye_pick.detection import load_detection
 from handeye_pick.errors import RobotFault, SafetyRefusal
-from handeye_pick.geometry import Transform, make_transform, rotation_from_euler
-from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_SPEED_MPS
+from handeye_pick.geometry import Transform, make_transform, rotation_from_euler, ur_pose_to_matrix
+from handeye_pick.hand_eye.files import HandEyeMode
+from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_JOINT_SPEED_RPS, MAX_SPEED_MPS
 from handeye_pick.robot.port import (
     OutputBank,
     ProgressCallback,
@@ -24,9 +29,13 @@ from handeye_pick.robot.port import (
 )
 from handeye_pick.safety import (
     CheckResult,
+    CornerTarget,
+    JointTarget,
     PoseTarget,
     PreflightRefusal,
     cell_readiness_problems,
+    chain_checks,
+    check_joint_command,
     check_motion_command,
     preflight,
     tilt_deg,
@@ -57,10 +66,12 @@ class FakeArm:
         *,
         unsafe: tuple[NDArray[np.float64], ...] = (),
         unreachable: tuple[NDArray[np.float64], ...] = (),
+        unsafe_joints: tuple[tuple[float, ...], ...] = (),
         fault: bool = False,
     ) -> None:
         self.unsafe = unsafe
         self.unreachable = unreachable
+        self.unsafe_joints = unsafe_joints
         self.fault = fault
         self.asked: list[str] = []
         self.motion: list[str] = []
@@ -83,6 +94,10 @@ class FakeArm:
     def is_pose_within_safety_limits(self, T_base_tcp: Transform) -> bool:
         self.asked.append("safety_limits")
         return not self._matches(T_base_tcp, self.unsafe)
+
+    def joints_within_safety_limits(self, q_rad: tuple[float, ...]) -> bool:
+        self.asked.append("joint_safety_limits")
+        return tuple(q_rad) not in self.unsafe_joints
 
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
         self.asked.append("ik")
@@ -291,6 +306,75 @@ def test_motion_command_at_the_caps_is_allowed() -> None:
     check_motion_command(MAX_GRASP_SPEED_MPS, 1.2, max_speed_mps=MAX_GRASP_SPEED_MPS)
 
 
+@pytest.mark.parametrize("speed_rps", [0.0, -0.1, math.nan, MAX_JOINT_SPEED_RPS * 1.001])
+def test_a_joint_speed_outside_its_cap_is_refused_saying_the_range(speed_rps: float) -> None:
+    with pytest.raises(SafetyRefusal) as info:
+        check_joint_command(speed_rps)
+    assert str(info.value) == (
+        f"motion command refused, nothing sent: joint speed {speed_rps:g} rad/s outside "
+        f"(0, {MAX_JOINT_SPEED_RPS:g}] rad/s"
+    )
+
+
+def test_a_joint_speed_at_its_cap_is_allowed() -> None:
+    check_joint_command(MAX_JOINT_SPEED_RPS)
+    check_joint_command(1e-6)
+
+
+HOME_Q = (0.0, -math.pi / 2, math.pi / 2, -math.pi / 2, -math.pi / 2, 0.0)
+FAR_Q = (0.5, -1.0, 2.0, -1.2, -1.5707, 3.0)
+
+
+def test_a_joint_target_outside_the_controller_limits_is_refused_in_degrees() -> None:
+    arm = FakeArm(unsafe_joints=(FAR_Q,))
+    joints = [JointTarget("home", HOME_Q), JointTarget("drop", FAR_Q)]
+    with pytest.raises(PreflightRefusal) as info:
+        preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, arm, joint_targets=joints)
+    results = {r.target: r for r in info.value.results if r.name == "joint_safety_limits"}
+    assert results["home"].passed
+    assert results["home"].detail == (
+        "controller safety limits accept joints [0.0, -90.0, 90.0, -90.0, -90.0, 0.0] deg"
+    )
+    assert not results["drop"].passed
+    assert results["drop"].detail == (
+        "controller safety limits refuse joints [28.6, -57.3, 114.6, -68.8, -90.0, 171.9] deg"
+    )
+    assert arm.motion == []
+
+
+def test_a_joint_target_is_asked_once_per_session() -> None:
+    arm = FakeArm()
+    session: dict[bytes, tuple[bool, bool]] = {}
+    for _ in range(2):
+        preflight(
+            _pose_targets(TARGETS), MOTION, WORKSPACE, arm,
+            joint_targets=[JointTarget("home", HOME_Q)], verdicts=session,
+        )  # fmt: skip
+    assert arm.asked.count("joint_safety_limits") == 1
+
+
+@pytest.mark.parametrize(("center_x_m", "passed"), [(0.4, True), (0.79, False)])
+def test_a_blend_corner_must_stay_inside_the_box_and_says_its_radius_in_mm(
+    center_x_m: float, passed: bool
+) -> None:
+    corner = CornerTarget(
+        "place_approach", np.array([center_x_m, 0.1, 0.3]), 0.025, np.array([0.025, 0.025, 0.0])
+    )
+    if passed:
+        results = preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, FakeArm(), corners=[corner])
+    else:
+        with pytest.raises(PreflightRefusal) as info:
+            preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, FakeArm(), corners=[corner])
+        results = info.value.results
+    (check,) = [r for r in results if r.name == "corner_workspace"]
+    assert (check.target, check.passed) == ("place_approach", passed)
+    where = "a 25.0 mm blend around the target"
+    if passed:
+        assert check.detail == f"{where} stays inside the box"
+    else:
+        assert check.detail == f"{where} reaches out: x 815.0 mm above max 800 mm"
+
+
 @pytest.mark.parametrize(
     ("euler_deg", "expected"),
     [([180, 0, 0], 0.0), ([180, 0, 77], 0.0), ([90, 0, 0], 90.0), ([0, 0, 0], 180.0)],
@@ -370,3 +454,32 @@ def test_tcp_offset_must_match_the_config_within_tolerance(actual: Transform, re
     if not ready:
         assert "robot.tcp_offset" in problems[0]
         assert "Installation > General > TCP" in problems[0]
+
+
+ROOT = Path(__file__).resolve().parents[2]
+# A flange pose no UR reaches (m, rad): a wrist camera there sees the demo object out of reach.
+FLANGE_OUT_OF_REACH = ur_pose_to_matrix([0.0, 2.5, 0.5, math.pi, 0.0, 0.0])
+
+
+@pytest.mark.parametrize("acknowledged", [False, True])
+def test_the_chain_checks_of_a_wrist_camera_use_the_flange_and_say_how_to_acknowledge(
+    acknowledged: bool,
+) -> None:
+    config = load_config(ROOT / "config" / "demo.yaml")
+    if acknowledged:
+        hand_eye = dataclasses.replace(config.hand_eye, acknowledge=("object-within-reach",))
+        config = dataclasses.replace(config, hand_eye=hand_eye)
+    calibration = calibration_from_config(config)
+    assert calibration.mode is HandEyeMode.EYE_IN_HAND
+    T_cam_obj = load_detection(ROOT / "config" / "demo" / "detection.yaml").T_cam_obj
+    assert chain_checks(config, calibration, T_cam_obj, None) == []
+    (result,) = chain_checks(config, calibration, T_cam_obj, FLANGE_OUT_OF_REACH)
+    assert (result.name, result.target, result.passed) == (
+        "plausible object-within-reach", "chain", acknowledged,
+    )  # fmt: skip
+    assert result.detail.startswith("the object is ")
+    assert result.detail.endswith(
+        "(acknowledged in hand_eye.acknowledge)"
+        if acknowledged
+        else "(an unusual mount acknowledges it: hand_eye.acknowledge: [object-within-reach])"
+    )
