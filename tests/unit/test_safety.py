@@ -37,6 +37,8 @@ from handeye_pick.safety import (
     chain_checks,
     check_joint_command,
     check_motion_command,
+    ensure_remote_control,
+    motion_problems,
     preflight,
     tilt_deg,
 )
@@ -353,9 +355,16 @@ def test_a_joint_target_is_asked_once_per_session() -> None:
     assert arm.asked.count("joint_safety_limits") == 1
 
 
-@pytest.mark.parametrize(("center_x_m", "passed"), [(0.4, True), (0.79, False)])
+@pytest.mark.parametrize(
+    ("center_x_m", "passed", "why"),
+    [
+        (0.4, True, ""),
+        (0.79, False, "x 815.0 mm above max 800 mm"),
+        (-0.79, False, "x -815.0 mm below min -800 mm"),
+    ],
+)
 def test_a_blend_corner_must_stay_inside_the_box_and_says_its_radius_in_mm(
-    center_x_m: float, passed: bool
+    center_x_m: float, passed: bool, why: str
 ) -> None:
     corner = CornerTarget(
         "place_approach", np.array([center_x_m, 0.1, 0.3]), 0.025, np.array([0.025, 0.025, 0.0])
@@ -372,7 +381,7 @@ def test_a_blend_corner_must_stay_inside_the_box_and_says_its_radius_in_mm(
     if passed:
         assert check.detail == f"{where} stays inside the box"
     else:
-        assert check.detail == f"{where} reaches out: x 815.0 mm above max 800 mm"
+        assert check.detail == f"{where} reaches out: {why}"
 
 
 @pytest.mark.parametrize(
@@ -482,4 +491,60 @@ def test_the_chain_checks_of_a_wrist_camera_use_the_flange_and_say_how_to_acknow
         "(acknowledged in hand_eye.acknowledge)"
         if acknowledged
         else "(an unusual mount acknowledges it: hand_eye.acknowledge: [object-within-reach])"
+    )
+
+
+def test_each_pose_check_says_the_tcp_position_in_mm_and_what_it_found() -> None:
+    targets = {
+        "approach": _down(0.90004, 0.1, 0.9),  # outside the box on two axes
+        "grasp": _down(0.40004, 0.1, 0.2),
+    }
+    arm = FakeArm(unsafe=(targets["grasp"][:3, 3],))
+    refusal, _ = _refusal(targets, arm=arm)
+    details = {(r.target, r.name): r.detail for r in refusal.results}
+    approach, grasp = "the TCP at [900.0, 100.0, 900.0] mm", "the TCP at [400.0, 100.0, 200.0] mm"
+    assert details["approach", "workspace"] == (
+        f"{approach}: x 900.0 mm above max 800 mm, z 900.0 mm above max 800 mm"
+    )
+    assert details["grasp", "workspace"] == f"{grasp} inside the box"
+    assert details["approach", "safety_limits"] == f"controller safety limits accept {approach}"
+    assert details["grasp", "safety_limits"] == f"controller safety limits refuse {grasp}"
+    assert details["grasp", "ik"] == f"controller finds inverse kinematics for {grasp}"
+
+
+def test_motion_problems_name_the_value_its_unit_and_the_allowed_range() -> None:
+    assert motion_problems(2.0, 9.0, MAX_SPEED_MPS) == [
+        "speed 2 m/s outside (0, 1] m/s",
+        "acceleration 9 m/s^2 outside (0, 4] m/s^2",
+    ]
+    with pytest.raises(SafetyRefusal) as info:
+        check_motion_command(2.0, 9.0)
+    assert str(info.value) == (
+        "motion command refused, nothing sent: speed 2 m/s outside (0, 1] m/s; "
+        "acceleration 9 m/s^2 outside (0, 4] m/s^2"
+    )
+
+
+@pytest.mark.parametrize(
+    ("note", "ending"), [("", "grasp tilt: b; place ik: c"), ("n", "grasp tilt: b; place ik: c; n")]
+)
+def test_a_refusal_lists_every_failed_check_then_its_note(note: str, ending: str) -> None:
+    results = [
+        CheckResult("speed", "motion", True, "a"),
+        CheckResult("tilt", "grasp", False, "b"),
+        CheckResult("ik", "place", False, "c"),
+    ]
+    assert str(PreflightRefusal(results, note)) == (
+        f"pre-flight checks refused the pick, nothing moved (2 of 3 checks failed): {ending}"
+    )
+    assert str(PreflightRefusal(results)) == str(PreflightRefusal(results, ""))
+
+
+def test_a_move_on_a_robot_in_local_control_is_refused_saying_what_to_do() -> None:
+    ensure_remote_control(True, "127.0.0.9", "moveL")
+    with pytest.raises(SafetyRefusal) as info:
+        ensure_remote_control(False, "127.0.0.9", "moveL")
+    assert str(info.value) == (
+        "moveL on 127.0.0.9 refused, nothing sent: the robot was switched to local control; "
+        "switch the teach pendant back to Remote Control"
     )
