@@ -71,15 +71,15 @@ class JointPathRefused(SafetyRefusal):
 
 
 class TcpCurve(Protocol):
-    """A piece of a move the TCP drives (``scene.path.Piece`` is one): ``pose(s)`` the TCP
-    (``T_base_tcp``, m) at ``s`` in [0, 1], ``fraction(s)`` where that lies along the whole
-    move, and ``rate_m(reach_m)`` = travel + turn * reach_m per unit of ``s`` (m), which bounds
-    how fast a point ``reach_m`` from the TCP moves."""
+    """A piece of a move the TCP drives (``scene.path.Piece`` is one): ``poses(s)`` the TCP
+    (``T_base_tcp``, m) at every ``s`` (n,) in [0, 1], ``fraction(s)`` where that lies along
+    the whole move, and ``rate_m(reach_m)`` = travel + turn * reach_m per unit of ``s`` (m),
+    which bounds how fast a point ``reach_m`` from the TCP moves."""
 
     @property
     def what(self) -> str: ...
 
-    def pose(self, s: float) -> Transform: ...
+    def poses(self, s: NDArray[np.float64]) -> NDArray[np.float64]: ...
 
     def fraction(self, s: float) -> float: ...
 
@@ -88,12 +88,13 @@ class TcpCurve(Protocol):
 
 @dataclass(frozen=True)
 class JointPath:
-    """The joint angles ``q`` (n + 1, 6) rad at the n + 1 looks along a move ``what``, and
-    where each lies along the whole move (``fraction``, 0 to 1)."""
+    """The joint angles ``q`` (n + 1, 6) rad at the n + 1 looks along a move ``what``, where
+    each lies along the whole move (``fraction``, 0 to 1) and along its piece (``s``, 0 to 1)."""
 
     what: str
     q: Joints
     fraction: NDArray[np.float64]
+    s: NDArray[np.float64]
 
     @property
     def dq(self) -> Joints:
@@ -123,8 +124,8 @@ def follow(
     cannot follow."""
     start = np.asarray(q_start, dtype=np.float64)
     s = np.linspace(0.0, 1.0, steps_for(curve) + 1)
-    T_base_tcp = np.stack([curve.pose(float(v)) for v in s])
-    fraction = np.array([curve.fraction(float(v)) for v in s])
+    T_base_tcp = curve.poses(s)
+    fraction = curve.fraction(0.0) + s * (curve.fraction(1.0) - curve.fraction(0.0))
     solved = branches(model, T_base_tcp @ invert(T_flange_tcp))
 
     gaps = np.abs(wrap(solved.q[0] - start)).max(axis=1)
@@ -156,7 +157,7 @@ def follow(
                 f"it ends on another branch than the controller's IK at the target (joint "
                 f"{joint + 1} {_degrees(apart[joint])} apart): the arm would turn another way",
             )
-    return JointPath(curve.what, q, fraction)
+    return JointPath(curve.what, q, fraction, s)
 
 
 def _first_problem(
@@ -240,7 +241,7 @@ def joint_move(what: str, q_from: ArrayLike, q_to: ArrayLike) -> JointPath:
     span = np.asarray(q_to, dtype=np.float64) - start
     n = max(1, math.ceil(float(np.abs(span).max()) / JOINT_STEP_RAD))
     fraction = np.linspace(0.0, 1.0, n + 1)
-    return JointPath(what, start + fraction[:, None] * span, fraction)
+    return JointPath(what, start + fraction[:, None] * span, fraction, fraction)
 
 
 def _degrees(angle_rad: float) -> str:
