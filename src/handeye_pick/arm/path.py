@@ -111,22 +111,59 @@ def steps_for(curve: TcpCurve) -> int:
     return max(1, math.ceil(travel / LINEAR_STEP_M), math.ceil(turn / TURN_STEP_RAD))
 
 
+@dataclass(frozen=True)
+class Looks:
+    """Where a moveL piece is looked at: ``s`` (n + 1,) along it, the TCP there
+    (``T_base_tcp``, (n + 1, 4, 4), m) and the model's eight branches at each."""
+
+    s: NDArray[np.float64]
+    T_base_tcp: NDArray[np.float64]
+    solved: Branches
+
+
+def looks(model: ArmModel, T_flange_tcp: Transform, curves: Sequence[TcpCurve]) -> list[Looks]:
+    """The looks of every piece of ``curves`` (``steps_for`` steps each), their IK solved as
+    one batch."""
+    if not curves:
+        return []
+    s_all = [np.linspace(0.0, 1.0, steps_for(curve) + 1) for curve in curves]
+    T_all = [curve.poses(s) for curve, s in zip(curves, s_all, strict=True)]
+    solved = branches(model, np.concatenate(T_all) @ invert(T_flange_tcp))
+    out: list[Looks] = []
+    start = 0
+    for s, T in zip(s_all, T_all, strict=True):
+        part = slice(start, start + len(s))
+        start += len(s)
+        out.append(
+            Looks(
+                s,
+                T,
+                Branches(
+                    solved.q[part], solved.shoulder_m[part], solved.wrist[part],
+                    solved.elbow[part],
+                ),
+            )
+        )
+    return out
+
+
 def follow(
     model: ArmModel,
     T_flange_tcp: Transform,
     curve: TcpCurve,
     q_start: ArrayLike,
     q_end: ArrayLike | None = None,
+    seen: Looks | None = None,
 ) -> JointPath:
     """The joint path of a moveL piece from the joints ``q_start`` (rad: where the arm stands,
     or where the piece before ended). ``q_end``: the controller's IK at the piece's end when it
-    ends at a target (its branch must be the one followed). ``JointPathRefused`` where the arm
-    cannot follow."""
+    ends at a target (its branch must be the one followed). ``seen``: the piece's ``looks``
+    when they are solved already. ``JointPathRefused`` where the arm cannot follow."""
     start = np.asarray(q_start, dtype=np.float64)
-    s = np.linspace(0.0, 1.0, steps_for(curve) + 1)
-    T_base_tcp = curve.poses(s)
+    if seen is None:
+        seen = looks(model, T_flange_tcp, [curve])[0]
+    s, T_base_tcp, solved = seen.s, seen.T_base_tcp, seen.solved
     fraction = curve.fraction(0.0) + s * (curve.fraction(1.0) - curve.fraction(0.0))
-    solved = branches(model, T_base_tcp @ invert(T_flange_tcp))
 
     gaps = np.abs(wrap(solved.q[0] - start)).max(axis=1)
     branch = int(np.argmin(np.where(np.isnan(gaps), np.inf, gaps)))

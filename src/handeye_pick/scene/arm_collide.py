@@ -260,12 +260,20 @@ class ArmCheck:
         result: NDArray[np.float64] = np.sqrt((gap * gap).sum(axis=1))
         return result
 
-    def _prove(self, leg: Leg, pairs: _Pairs) -> CheckResult | tuple[float, str, str]:
+    def _prove(
+        self,
+        leg: Leg,
+        pairs: _Pairs,
+        poses: NDArray[np.float64],
+        by_body: NDArray[np.float64],
+    ) -> CheckResult | tuple[float, str, str]:
         """The refusal of ``leg`` at its first look too close, or at a step never proven;
-        else the smallest distance seen (m) and its pair's labels."""
+        else the smallest distance seen (m) and its pair's labels. ``poses``: every solid at
+        every look of the leg (``_place``; solids beyond ``pairs``' ignored), ``by_body``: the
+        solids' bounds of its steps (``_body_bounds``)."""
         Q, s = leg.path.q, leg.path.s
-        F, poses = self._place(Q, pairs.tool)
-        by_body = self._body_bounds(F[:-1], poses[:-1], np.diff(Q, axis=0), pairs.tool)
+        bodies = len(self._links) + len(pairs.tool)
+        poses, by_body = poses[:, :bodies], by_body[:, :bodies]
         # Pairs whose boxes over the whole leg lie farther apart than any step can bring them
         # (with the clearance) are clear all along; the rest are screened look by look.
         coarse = self._coarse(poses, pairs) - self.clearance_m
@@ -352,10 +360,23 @@ class ArmCheck:
             driven = legs(self.model, self.T_flange_tcp, steps, T_base_tcp_start, q_start)
         except LegRefused as refused:
             return [CheckResult(PATH_CHECK, refused.move, False, refused.reason)]
+        if not driven:
+            return []
         held = self._pairs([*self._tool, part]) if part is not None else self._plain
+        # Every look of every leg placed, and every step bounded, as one batch.
+        Q = np.concatenate([leg.path.q for leg in driven])
+        F, poses = self._place(Q, held.tool)
+        by_body = self._body_bounds(F[:-1], poses[:-1], np.diff(Q, axis=0), held.tool)
         closest: dict[str, tuple[float, str, str]] = {}
+        start = 0
         for leg in driven:
-            outcome = self._prove(leg, held if leg.held else self._plain)
+            n = len(leg.path.q)
+            pairs = held if leg.held else self._plain
+            # The steps of this leg only: not the one from its last look to the next leg's first.
+            outcome = self._prove(
+                leg, pairs, poses[start : start + n], by_body[start : start + n - 1]
+            )
+            start += n
             if isinstance(outcome, CheckResult):
                 return [outcome]
             if leg.move not in closest or outcome[0] < closest[leg.move][0]:

@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from handeye_pick.arm.ik import branches, wrap
 from handeye_pick.arm.kinematics import Joints, tcp_poses
 from handeye_pick.arm.models import ArmModel
-from handeye_pick.arm.path import JointPath, JointPathRefused, follow, joint_move
+from handeye_pick.arm.path import JointPath, JointPathRefused, follow, joint_move, looks
 from handeye_pick.geometry import Transform, invert
 from handeye_pick.scene.path import Piece, describe_move, pieces
 from handeye_pick.steps import Grip, JointMove, Step
@@ -116,9 +116,10 @@ def legs(
 
     def flush() -> None:
         nonlocal here_q
-        for piece in pieces(segment, here_T):
+        moves = pieces(segment, here_T)
+        for piece, seen in zip(moves, looks(model, T_flange_tcp, moves), strict=True):
             try:
-                path = follow(model, T_flange_tcp, piece, here_q)
+                path = follow(model, T_flange_tcp, piece, here_q, seen=seen)
             except JointPathRefused as refused:
                 raise LegRefused(piece.move, str(refused)) from None
             out.append(Leg(piece.move, piece.what, path, piece.held, piece))
