@@ -243,8 +243,12 @@ def _first_problem(
         reached = tcp_poses(model, q, T_flange_tcp)
         off_m = np.linalg.norm(reached[:, :3, 3] - T_base_tcp[:, :3, 3], axis=1)
         relative = np.swapaxes(reached[:, :3, :3], 1, 2) @ T_base_tcp[:, :3, :3]
-        cos_turn = np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-        off_rad = np.arccos(cos_turn)
+        # atan2(sin, cos) of the turn between them: well conditioned near 0, where arccos of
+        # the cosine alone turns a target's round-off (1e-7 off orthonormal) into 4e-4 rad.
+        cos_turn = (np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0
+        skew = relative - np.swapaxes(relative, 1, 2)
+        sin_turn = np.linalg.norm(skew[:, [2, 0, 1], [1, 2, 0]], axis=1) / 2.0
+        off_rad = np.arctan2(sin_turn, cos_turn)
         first(
             (off_m > FOLLOW_TOLERANCE_M) | (off_rad > FOLLOW_TOLERANCE_RAD),
             "the joints found miss the TCP path by more than 0.01 mm (a defect: report it)",
