@@ -37,16 +37,22 @@ def distances_at(
     half = np.array([link.length_m / 2.0 for link in model.links])
     radius = np.array([link.radius_m for link in model.links])
     centre, along = solids[..., :3, 3], solids[..., :3, 2]
-    ends = np.stack(
-        [centre - half[:, None] * along, centre + half[:, None] * along], axis=2
-    )  # (N, L, 2, 3): each solid's axis segment
+    links = len(model.links)
+    ends = np.concatenate(
+        [centre - half[:, None] * along, centre + half[:, None] * along], axis=1
+    )  # (N, 2L, 3): each solid's axis segment, first ends then second ends
     origin, axis = F[:, :6, :3, 3], F[:, :6, :3, 2]  # joint j turns about frame j - 1's z
-    offset = ends[:, :, :, None, :] - origin[:, None, None]  # (N, L, 2, 6, 3)
-    along_axis = np.einsum("nlejk,njk->nlej", offset, axis)
-    perpendicular = np.sqrt(
-        np.maximum(np.einsum("nlejk,nlejk->nlej", offset, offset) - along_axis**2, 0.0)
-    )
-    distance = perpendicular.max(axis=2) + radius[None, :, None]
+    # |p - o|^2 - ((p - o) . a)^2 expanded, every product one batched matmul (its round-off,
+    # some 1e-8 m near an axis, lies far inside the sweep's 0.5 mm tolerance)
+    p_a = ends @ np.swapaxes(axis, 1, 2)  # (N, 2L, 6)
+    p_o = ends @ np.swapaxes(origin, 1, 2)
+    o_a = np.einsum("njk,njk->nj", origin, axis)[:, None, :]
+    o_o = np.einsum("njk,njk->nj", origin, origin)[:, None, :]
+    p_p = np.einsum("nek,nek->ne", ends, ends)[:, :, None]
+    squared = p_p - 2.0 * p_o + o_o - (p_a - o_a) ** 2
+    perpendicular = np.sqrt(np.maximum(squared, 0.0))
+    perpendicular = np.maximum(perpendicular[:, :links], perpendicular[:, links:])
+    distance = perpendicular + radius[None, :, None]
     carried = np.arange(6)[None, :] < model.solid_frames[:, None]  # (L, 6)
     result: NDArray[np.float64] = np.where(carried, distance, 0.0)
     return result

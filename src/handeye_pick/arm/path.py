@@ -121,14 +121,27 @@ class Looks:
     solved: Branches
 
 
-def looks(model: ArmModel, T_flange_tcp: Transform, curves: Sequence[TcpCurve]) -> list[Looks]:
+def looks(
+    model: ArmModel,
+    T_flange_tcp: Transform,
+    curves: Sequence[TcpCurve],
+    q_start: ArrayLike | None = None,
+) -> list[Looks]:
     """The looks of every piece of ``curves`` (``steps_for`` steps each), their IK solved as
-    one batch."""
+    one batch: every branch, or with the joints ``q_start`` the arm starts the first piece
+    with, the branch nearest them alone (a path stays on its branch: leaving it is a
+    singularity, which ``follow`` refuses)."""
     if not curves:
         return []
     s_all = [np.linspace(0.0, 1.0, steps_for(curve) + 1) for curve in curves]
     T_all = [curve.poses(s) for curve, s in zip(curves, s_all, strict=True)]
-    solved = branches(model, np.concatenate(T_all) @ invert(T_flange_tcp))
+    T_base_flange = np.concatenate(T_all) @ invert(T_flange_tcp)
+    branch = None
+    if q_start is not None:
+        first = branches(model, T_base_flange[:1]).q[0]
+        gaps = np.abs(wrap(first - np.asarray(q_start, dtype=np.float64))).max(axis=1)
+        branch = None if np.all(np.isnan(gaps)) else int(np.nanargmin(gaps))
+    solved = branches(model, T_base_flange, branch)
     out: list[Looks] = []
     start = 0
     for s, T in zip(s_all, T_all, strict=True):

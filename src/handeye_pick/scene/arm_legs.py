@@ -117,7 +117,8 @@ def legs(
     def flush() -> None:
         nonlocal here_q
         moves = pieces(segment, here_T)
-        for piece, seen in zip(moves, looks(model, T_flange_tcp, moves), strict=True):
+        seen_all = looks(model, T_flange_tcp, moves, here_q)
+        for piece, seen in zip(moves, seen_all, strict=True):
             try:
                 path = follow(model, T_flange_tcp, piece, here_q, seen=seen)
             except JointPathRefused as refused:
