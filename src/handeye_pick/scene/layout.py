@@ -52,7 +52,8 @@ def scene_boxes(scene: SceneConfig) -> list[Box]:
 
 
 def describe_scene(scene: SceneConfig, tool_solids: int) -> str:
-    """One line for ``status``: the bins, the boxes, the floor, the clearance, the tool."""
+    """One line for ``status``: the bins, the boxes, the floor, the clearance, the tool, and
+    whether the arm's links are checked (``scene.arm``)."""
     parts = [
         f"bin '{b.name}' ({' x '.join(f'{v:g}' for v in b.inner_mm)} mm inside)"
         for b in scene.bins
@@ -60,6 +61,12 @@ def describe_scene(scene: SceneConfig, tool_solids: int) -> str:
     parts += [f"box '{b.name}'" for b in scene.boxes]
     if scene.floor_z_mm is not None:
         parts.append(f"floor at z {scene.floor_z_mm:g} mm")
+    arm = (
+        "the arm's links checked too"
+        if scene.arm_checked
+        else "the arm is not checked (scene.arm: unchecked)"
+    )
     return (
-        f"{', '.join(parts)}; clearance {scene.clearance_mm:g} mm; tool of {tool_solids} solids"
+        f"{', '.join(parts)}; clearance {scene.clearance_mm:g} mm; tool of {tool_solids} "
+        f"solids; {arm}"
     )
