@@ -36,6 +36,7 @@ from handeye_pick.geometry import Transform, make_transform
 from handeye_pick.safety import CheckResult
 from handeye_pick.scene.arm_legs import Leg, LegRefused, legs, start_joints
 from handeye_pick.scene.collide import PROOF_TOLERANCE_M, refusal_detail
+from handeye_pick.scene.path import Piece
 from handeye_pick.scene.shapes import Obstacle, Solid
 from handeye_pick.steps import Step
 
@@ -351,13 +352,17 @@ class ArmCheck:
         T_base_tcp_start: Transform,
         q_actual: ArrayLike,
         part: Solid | None,
+        built: Sequence[Piece] | None = None,
     ) -> list[CheckResult]:
         """``arm collision`` results of ``steps`` driven from ``T_base_tcp_start`` with the
         controller's actual joints ``q_actual`` (rad), one per move, or the first refusal
-        (a ``joint path`` refusal where the arm cannot follow a move)."""
+        (a ``joint path`` refusal where the arm cannot follow a move). ``built``: the
+        sequence's pieces when built already (``path.pieces``)."""
         q_start = start_joints(self.model, self.T_flange_tcp, T_base_tcp_start, q_actual)
         try:
-            driven = legs(self.model, self.T_flange_tcp, steps, T_base_tcp_start, q_start)
+            driven = legs(
+                self.model, self.T_flange_tcp, steps, T_base_tcp_start, q_start, built
+            )
         except LegRefused as refused:
             return [CheckResult(PATH_CHECK, refused.move, False, refused.reason)]
         if not driven:

@@ -103,20 +103,24 @@ def legs(
     steps: Sequence[Step],
     T_base_tcp_start: Transform,
     q_start: ArrayLike,
+    built: Sequence[Piece] | None = None,
 ) -> list[Leg]:
     """Every move of ``steps`` driven from ``T_base_tcp_start`` with the joints ``q_start``,
     in order; ``LegRefused`` at the first the arm cannot follow. The held part is known
     for the moveL pieces of a pick (a pick's sequence has no moveJ): a moveJ counts as
-    holding when a grip closed before it."""
+    holding when a grip closed before it. ``built``: ``pieces(steps, T_base_tcp_start)``
+    when the caller has them already (used for a sequence without a moveJ)."""
     out: list[Leg] = []
     here_q = np.asarray(q_start, dtype=np.float64)
     here_T = T_base_tcp_start
     segment: list[Step] = []
     holding = False
 
+    reuse = built is not None and not any(isinstance(step, JointMove) for step in steps)
+
     def flush() -> None:
         nonlocal here_q
-        moves = pieces(segment, here_T)
+        moves = list(built) if reuse and built is not None else pieces(segment, here_T)
         seen_all = looks(model, T_flange_tcp, moves, here_q)
         for piece, seen in zip(moves, seen_all, strict=True):
             try:

@@ -90,8 +90,9 @@ class SceneCheck:
             if part_size_mm is not None
             else None
         )
-        tool = check_path(self.sweep, pieces(steps, T_base_tcp_start), self._tool, part)
-        return self._with_arm(tool, steps, T_base_tcp_start, part, q_actual)
+        built = pieces(steps, T_base_tcp_start)
+        tool = check_path(self.sweep, built, self._tool, part)
+        return self._with_arm(tool, steps, T_base_tcp_start, part, q_actual, built)
 
     def check_tool(
         self,
@@ -102,8 +103,9 @@ class SceneCheck:
         """``collision`` results of a sequence of configured targets (a place, a named pose)
         driven from ``T_base_tcp_start``, the tool alone (a part carried since an earlier pick
         is not modelled), then the arm's from the controller's actual joints ``q_actual``."""
-        tool = check_path(self.sweep, pieces(steps, T_base_tcp_start), self._tool, None)
-        return self._with_arm(tool, steps, T_base_tcp_start, None, q_actual)
+        built = pieces(steps, T_base_tcp_start)
+        tool = check_path(self.sweep, built, self._tool, None)
+        return self._with_arm(tool, steps, T_base_tcp_start, None, q_actual, built)
 
     def _with_arm(
         self,
@@ -112,8 +114,10 @@ class SceneCheck:
         T_base_tcp_start: Transform,
         part: Solid | None,
         q_actual: Sequence[float] | None,
+        built: list[Piece],
     ) -> list[CheckResult]:
-        """The tool's results and the arm's: the arm is swept once the tool is clear."""
+        """The tool's results and the arm's: the arm is swept once the tool is clear (along
+        the pieces ``built`` for the tool's sweep)."""
         if self.arm is None or not all(r.passed for r in tool):
             return [*self._unchecked, *tool]
         if q_actual is None:
@@ -121,4 +125,4 @@ class SceneCheck:
                 *tool,
                 CheckResult(ARM_CHECK, "path", False, "the arm's joints are not known"),
             ]
-        return [*tool, *self.arm.check(steps, T_base_tcp_start, q_actual, part)]
+        return [*tool, *self.arm.check(steps, T_base_tcp_start, q_actual, part, built)]
