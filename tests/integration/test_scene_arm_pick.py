@@ -1,7 +1,8 @@
 """The whole arm's check in a pick against the simulated controller (docs/scene.md): a post in
 the forearm's way, which the tool never comes near, refuses the pick before anything moves,
 naming the link in the reply, the ``--json`` report and the audit; with ``scene.arm:
-unchecked`` the same pick runs (the tool alone is checked) and every check list says so."""
+unchecked`` the same pick runs (the tool alone is checked) and every check list says so, as
+``plan`` does."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from handeye_pick.arm.kinematics import link_poses
 from handeye_pick.arm.models import arm_model
 from mocks.ur_controller import SimulatedController
 from tests.integration.test_arm_model_connect import _below_the_camera
+from tests.integration.test_operator_cli import cli
 from tests.integration.test_pick_cli import (
     TCP_OFFSET,
     audit_records,
@@ -69,3 +71,19 @@ def test_unchecked_runs_the_same_pick_and_says_the_arm_is_not_checked(
     (note,) = [c for c in report["checks"] if c["name"] == "arm collision"]
     assert note["passed"]
     assert note["detail"].startswith("the arm is not checked (scene.arm: unchecked)")
+
+
+def test_plan_says_the_arm_is_not_checked(tmp_path: Path) -> None:
+    # No controller listens on this address: the flange comes from the command line only.
+    scene = "  arm: unchecked\n  clearance_mm: 5\n  floor_z_mm: 0\n"
+    config = write_config(tmp_path, "127.0.0.254", scene=scene, tool=TOOL)
+    flange_ur = ["-0.4919", "-0.1333", "0.4879", "2.2214", "2.2214", "0"]
+    result = cli(
+        "plan", "--config", str(config), "--xyz", "30", "-20", "380",
+        "--robot-pose-ur", *flange_ur, "--plot", str(tmp_path / "plan.png"),
+    )
+    assert result.returncode == 0, result.stderr
+    assert (
+        "  scene: the arm is not checked (scene.arm: unchecked): only the tool and the held part "
+        "are" in result.stdout.splitlines()
+    )

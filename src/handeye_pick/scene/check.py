@@ -13,19 +13,13 @@ from handeye_pick.geometry import Transform, invert
 from handeye_pick.safety import CheckResult
 from handeye_pick.scene.arm_collide import ARM_CHECK, ArmCheck
 from handeye_pick.scene.collide import Group, Sweep, check_path, end_refusal
+from handeye_pick.scene.layout import arm_not_checked
 from handeye_pick.scene.path import Piece, describe_move, pieces
 from handeye_pick.scene.shapes import Solid, obstacles, part_solid, tool_solids
 from handeye_pick.steps import Step
 
 GRASP = PICK_MOVES[1]
 
-
-def arm_not_checked(scene: SceneConfig) -> str | None:
-    """Why the arm's links are not checked (None: they are), as the plan, its record and
-    ``status`` say it."""
-    if scene.arm_checked:
-        return None
-    return "the arm is not checked (scene.arm: unchecked): only the tool and the held part are"
 
 
 class SceneCheck:
