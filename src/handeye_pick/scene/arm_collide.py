@@ -152,7 +152,9 @@ class ArmCheck:
         what = f"the arm's {names[other]}" if pairs.moving[p] else self.static[other].label
         return names[body], what
 
-    def _place(self, Q: Joints, tool: list[Solid]) -> tuple[NDArray[np.float64], Joints]:
+    def _place(
+        self, Q: Joints, tool: list[Solid]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """The frames (N, 7, 4, 4) and every solid's pose (N, B, 4, 4): links, then tool."""
         F = frames(self.model, Q)
         tcp = F[:, 6] @ self.T_flange_tcp
