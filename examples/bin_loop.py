@@ -1,9 +1,10 @@
-"""A vision client emptying a bin through `handeye-pick run`, every move checked against the bin.
+"""A vision client emptying a deep bin through `handeye-pick run`, every move of the tool and the
+arm checked against the bin and a fixture beside the place.
 
-Starts the simulated UR5e controller (with --trace-tcp: the motion record keeps the TCP pose of
-every cycle), builds a simulated scene with the bin of config/bin.yaml and six 50 mm cubes in it
-(two against walls, one in a corner, one turned, ...), watched by the wrist camera of
-config/loop/hand_eye.yaml, starts
+Starts the simulated UR5e controller (with --trace-tcp: the motion record keeps the TCP pose and
+the joints of every cycle), builds a simulated scene with the bin of config/bin.yaml (190 mm
+deep: the wrist goes below its walls' top) and six 50 mm cubes in it (against walls, one in a
+corner, one turned, ...), watched by the wrist camera of config/loop/hand_eye.yaml, starts
 
     handeye-pick run --config config/bin.yaml
 
@@ -11,11 +12,16 @@ and, until the bin is empty or every cube left is refused: captures at the pose 
 finds the cubes' top faces in the cloud (points inside the bin's inner footprint and clearly
 above its floor), sends every cube as a candidate with its orientation, size and symmetry (a
 cube looks the same turned 90 degrees about its vertical), and takes the one picked out of the
-scene. Then mocks/contact_check.py replays the driven TCP poses with the tool's shape against the
-bin: zero contacts. Prints one line per cycle, the refusals, the contact count and a summary;
-exits 0 when every cube was picked or refused with its reason and nothing touched the bin, 1
-otherwise, 130 after a Ctrl-C (`run` stops the arm; the simulated robot does not get it). The
-simulated controller's log goes to out/bin_loop-simulator.log under the current folder.
+scene. Against a wall the fingers fit along it, but the last wrist would come into the wall's
+top: the tool-only check would pass those grasps, the arm's check refuses them (or takes a
+tilted one). Then mocks/contact_check.py replays the driven TCP poses with the tool's shape and
+the driven joints with the arm's links (the simulator's own kinematics, the package's link
+sizes as data) against the bin and the fixture: zero contacts. Prints one line per cycle, the
+refusals, how many grasps the tool-only check would have passed that the arm's refused, the
+contact count and a summary; exits 0 when every cube was picked or refused with its reason and
+nothing touched the bin or the fixture, 1 otherwise, 130 after a Ctrl-C (`run` stops the arm;
+the simulated robot does not get it). The simulated controller's log goes to
+out/bin_loop-simulator.log under the current folder.
 
 Run it from anywhere after `pip install -e .`:  python examples/bin_loop.py
 """
@@ -47,6 +53,7 @@ from vision_loop import (  # noqa: E402  (this folder is on the path when the sc
     simulator,
 )
 
+from handeye_pick.config.load import load_config  # noqa: E402
 from mocks.camera import Scene, SimulatedCamera, read_zivid_matrix  # noqa: E402
 from mocks.contact_check import count_contacts  # noqa: E402
 from mocks.ur_controller.kinematics import pose_to_matrix  # noqa: E402
@@ -127,6 +134,25 @@ def find_cubes(cloud_mm: Cloud, T_base_cam: np.ndarray, bin_: Bin) -> list[dict[
     return found
 
 
+def link_solids(config: Path) -> list[dict[str, object]]:
+    """The arm's link solids of the config's ``robot.model`` as the package models them, as
+    data for the independent replay (which places them with the simulator's kinematics)."""
+    model = load_config(config).robot.model
+    if model is None:
+        return []
+    return [
+        {"name": link.name, "kind": link.kind, "frame": link.frame, "radius_m": link.radius_m,
+         "length_m": link.length_m, "T_frame_solid": link.T_frame_solid.tolist()}
+        for link in model.links
+    ]
+
+
+def arm_refusals(reasons: list[str]) -> int:
+    """How many of a pick's refused grasps only the arm's check refused: the arm is swept once
+    the tool's sweep passed, so each ``arm collision`` is a grasp the tool-only check passed."""
+    return sum(" arm collision: " in f" {reason}" for reason in reasons)
+
+
 def nearest_cube(scene: Scene, point_m: np.ndarray) -> str:
     cubes = {name: box for name, box in scene.boxes.items() if name in CUBES}
     return min(cubes, key=lambda n: float(np.linalg.norm(cubes[n].top_centre_m() - point_m)))
@@ -155,6 +181,7 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
     problems: list[str] = []
     refused: list[str] = []
     picked: list[str] = []
+    arm_refused = 0
     with simulator(cell, SIMULATOR_LOG, speed_factor=speed_factor,
                    trace_tcp=True) as controller:
         with run_session(cell.config) as run:
@@ -170,6 +197,10 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
                         break  # the bin is empty
                     pick = run.request("pick", capture_id=capture["capture_id"],
                                        candidates=candidates)
+                    arm_refused += arm_refusals(
+                        [reason for r in pick.get("refused", []) for reason in r["reasons"]]
+                        + [reason for other in pick.get("alternative", {}).get("others", [])
+                           for reason in other["reasons"]])
                     if pick.get("status") in ("refused", "no-candidate"):  # nothing moved
                         refused = [f"candidate {r['candidate']}: {'; '.join(r['reasons'])}"
                                    for r in pick.get("refused", [])] or [str(pick.get("error"))]
@@ -188,7 +219,7 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
             except RuntimeError as exc:  # no reply, or not the one asked for
                 problems.append(str(exc))
         status = run.close()
-        contacts = count_contacts(cell.config, controller.motions)
+        contacts = count_contacts(cell.config, controller.motions, link_solids(cell.config))
     if status != 0:
         problems.append(f"handeye-pick run exited with status {status}")
     left = sorted(set(CUBES) - set(picked))
@@ -196,9 +227,12 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
         problems.append(f"cubes left {left} but the refusals say {refused}")
     for reason in refused:
         print(f"refused {reason}")
+    print(f"{arm_refused} grasps the tool-only check would have passed were refused by the "
+          "arm's check (a link in the way)")
     print(f"contact check: {contacts.line()}")
-    if contacts.contacts or contacts.samples == 0:
-        problems.append("the tool touched the bin" if contacts.contacts else "nothing replayed")
+    if contacts.contacts or contacts.link_contacts or contacts.samples == 0:
+        problems.append("the tool or the arm touched the scene" if contacts.samples
+                        else "nothing replayed")
     for problem in problems:
         print(f"FAILED {problem}", file=sys.stderr)
     verdict = "every check passed" if not problems else f"{len(problems)} checks FAILED"

@@ -97,8 +97,10 @@ class Controller:
         self._feedback = _feedback_bits(options.feedback_input)
         self._record = CommandRecord(options.record_path)
         self._motions = CommandRecord(options.motion_record_path)
-        # The target TCP pose of every cycle a motion moved, by motion index (trace_tcp only)
+        # The target TCP pose and joints of every cycle a motion moved, by motion index
+        # (trace_tcp only)
         self._trace: dict[int, list[list[float]]] | None = {} if options.trace_tcp else None
+        self._q_trace: dict[int, list[list[float]]] = {}
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | PendantProgram | None = None
@@ -553,6 +555,7 @@ class Controller:
             self._fire_move_faults(motion.index, motion.fraction)
             if self._trace is not None:
                 self._trace.setdefault(motion.index, []).append(self.arm.tcp_pose.tolist())
+                self._q_trace.setdefault(motion.index, []).append(self.arm.q.tolist())
         self.gripper.advance(dt_s)
         self._record_ended_motions()
         self._publish()
@@ -566,7 +569,8 @@ class Controller:
                 **(end.detail or {}),
                 **({} if motion.path is None else {"reached_t": list(motion.reached_s)}),
                 **({} if self._trace is None
-                   else {"tcp_trace": self._trace.pop(motion.index, [])}),
+                   else {"tcp_trace": self._trace.pop(motion.index, []),
+                         "q_trace": self._q_trace.pop(motion.index, [])}),
             })
         self.arm.ended.clear()
 

@@ -251,6 +251,18 @@ def _links(model: URModel, Q: Matrix) -> Matrix:
     return links
 
 
+def frames(model: URModel, Q: ArrayLike) -> Matrix:
+    """``T_base_frame`` of DH frames 0 to 6 (frame 6: the flange) for each row of ``Q``
+    (n, 6): shape (n, 7, 4, 4)."""
+    Q = np.atleast_2d(np.asarray(Q, dtype=np.float64))
+    links = _links(model, Q)
+    out = np.empty((Q.shape[0], 7, 4, 4))
+    out[:, 0] = np.eye(4)
+    for i in range(6):
+        out[:, i + 1] = out[:, i] @ links[:, i]
+    return out
+
+
 def _forward_many(model: URModel, Q: Matrix) -> Matrix:
     """``T_base_flange`` for each row of ``Q`` (n, 6): shape (n, 4, 4). One numpy pass for all."""
     links = _links(model, Q)

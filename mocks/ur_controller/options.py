@@ -45,7 +45,7 @@ class ControllerOptions:
     feedback_input: Sequence[int] | None = None  # (output bit, input bit), each 0..17
     program_start_s: float = 0.0  # a program from the script port runs this long after it came
     program_start_cost: bool = False  # ... or after the profile's start cost for its length
-    trace_tcp: bool = False  # each motion record entry lists the TCP pose of every cycle it moved
+    trace_tcp: bool = False  # each motion record entry lists the TCP pose and joints of every cycle
 
 
 _DEFAULTS = ControllerOptions()
@@ -93,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "at the speed factor); default: at once")
     parser.add_argument("--trace-tcp", action="store_true",
                         help="the motion record lists the target TCP pose of every cycle each "
-                             "motion moved (tcp_trace)")
+                             "motion moved (tcp_trace) and its joints (q_trace)")
     parser.add_argument("--no-remote-control", action="store_true",
                         help="start in local control (dashboard says remote control is off)")
     parser.add_argument("--allow-non-loopback", action="store_true",

@@ -50,7 +50,7 @@ class Heard:
     def on_candidates(self, plans: Any, chosen: Any, refused: Any) -> None:
         pass
 
-    def on_plan(self, steps: Any, T_base_tcp_start: Any) -> None:
+    def on_plan(self, steps: Any, T_base_tcp_start: Any, q_actual: Any = None) -> None:
         pass
 
     def on_status(self, status: dict[str, object]) -> None:

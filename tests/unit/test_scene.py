@@ -493,7 +493,8 @@ def test_status_describes_the_scene_in_one_line(tmp_path: Path) -> None:
     line = describe_scene(scene, len(config.tool_shape))
     assert line == (
         "bin 'parts' (300 x 200 x 150 mm inside), box 'fixture', box 'column', floor at z 0 mm; "
-        "clearance 5 mm; tool of 3 solids"
+        "clearance 5 mm; tool of 3 solids; the arm is not checked (scene.arm: unchecked): only "
+        "the tool and the held part are"
     )
 
 

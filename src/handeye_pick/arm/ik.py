@@ -55,9 +55,21 @@ def _invert(T: NDArray[np.float64]) -> NDArray[np.float64]:
     return out
 
 
-def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
-    """All eight branches of every pose of ``T_base_flange`` (N, 4, 4)."""
+_SIDES = np.array([1.0, -1.0])
+
+
+def branches(
+    model: ArmModel, T_base_flange: NDArray[np.float64], branch: int | None = None
+) -> Branches:
+    """All eight branches of every pose of ``T_base_flange`` (N, 4, 4); with ``branch``, that
+    one alone (``q`` (N, 1, 6), ``wrist`` and ``elbow`` (N, 1): index 0 stands for it)."""
     T = np.asarray(T_base_flange, dtype=np.float64)
+    if branch is None:
+        shoulders = wrists = elbows = _SIDES
+    else:
+        shoulders = _SIDES[[branch // 4]]
+        wrists, elbows = _SIDES[[branch // 2 % 2]], _SIDES[[branch % 2]]
+    ns, nw, ne = len(shoulders), len(wrists), len(elbows)
     n = T.shape[0]
     d4, d6 = model.d[3], model.d[5]
     a2, a3 = model.a[1], model.a[2]
@@ -69,34 +81,33 @@ def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
     radius_sq = centre[:, 0] ** 2 + centre[:, 1] ** 2
     along = np.sqrt(_within(radius_sq - d4 * d4, 0.0, np.inf))
     phi = np.arctan2(centre[:, 1], centre[:, 0])
-    side = np.array([1.0, -1.0])
-    q1 = phi[:, None] + np.arctan2(d4, side[None, :] * along[:, None])  # (N, 2)
+    q1 = phi[:, None] + np.arctan2(d4, shoulders[None, :] * along[:, None])  # (N, ns)
 
     # Joints 5 and 6: joint 2's axis [sin q1, -cos q1, 0] seen from the flange is
     # [s5 c6, -s5 s6, c5].
-    axis2 = np.stack([np.sin(q1), -np.cos(q1), np.zeros_like(q1)], axis=-1)  # (N, 2, 3)
-    seen = np.einsum("nji,nsj->nsi", R, axis2)  # R^T axis2, (N, 2, 3)
-    s5_abs = np.hypot(seen[..., 0], seen[..., 1])  # (N, 2)
-    flip = side[None, None, :]
-    q5 = np.arctan2(flip * s5_abs[..., None], seen[..., 2, None])  # (N, 2, 2)
+    axis2 = np.stack([np.sin(q1), -np.cos(q1), np.zeros_like(q1)], axis=-1)  # (N, ns, 3)
+    seen = np.einsum("nji,nsj->nsi", R, axis2)  # R^T axis2, (N, ns, 3)
+    s5_abs = np.hypot(seen[..., 0], seen[..., 1])  # (N, ns)
+    flip = wrists[None, None, :]
+    q5 = np.arctan2(flip * s5_abs[..., None], seen[..., 2, None])  # (N, ns, nw)
     q6 = np.arctan2(-flip * seen[..., 1, None], flip * seen[..., 0, None])
 
     # Joints 2 to 4: a planar arm in frame 1 reaching frame 4.
-    q = np.zeros((n, 2, 2, 6))
+    q = np.zeros((n, ns, nw, 6))
     q[..., 0] = q1[:, :, None]
     q[..., 4] = q5
     q[..., 5] = q6
-    A = dh_rows(model, q)  # (N, 2, 2, 6, 4, 4)
+    A = dh_rows(model, q)  # (N, ns, nw, 6, 4, 4)
     T_1_4 = _invert(A[..., 0, :, :]) @ T[:, None, None] @ _invert(A[..., 4, :, :] @ A[..., 5, :, :])
     x, y = T_1_4[..., 0, 3], T_1_4[..., 1, 3]
     c3 = (x * x + y * y - a2 * a2 - a3 * a3) / (2.0 * a2 * a3)
     c3 = _within(c3, -1.0, 1.0)
-    s3_abs = np.sqrt(1.0 - c3 * c3)  # (N, 2, 2)
-    s3 = side * s3_abs[..., None]  # (N, 2, 2, 2): the elbow's sign last
+    s3_abs = np.sqrt(1.0 - c3 * c3)  # (N, ns, nw)
+    s3 = elbows * s3_abs[..., None]  # (N, ns, nw, ne): the elbow's sign last
     q3 = np.arctan2(s3, c3[..., None])
     q2 = np.arctan2(y, x)[..., None] - np.arctan2(a3 * s3, a2 + a3 * c3[..., None])
     q234 = np.arctan2(T_1_4[..., 1, 0], T_1_4[..., 0, 0])[..., None]
-    out = np.empty((n, 2, 2, 2, 6))
+    out = np.empty((n, ns, nw, ne, 6))
     out[..., 0] = q1[:, :, None, None]
     out[..., 1] = q2
     out[..., 2] = q3
@@ -104,10 +115,10 @@ def branches(model: ArmModel, T_base_flange: NDArray[np.float64]) -> Branches:
     out[..., 4] = q5[..., None]
     out[..., 5] = q6[..., None]
     return Branches(
-        q=wrap(out.reshape(n, BRANCHES, 6)),
+        q=wrap(out.reshape(n, ns * nw * ne, 6)),
         shoulder_m=along,
         wrist=s5_abs,
-        elbow=s3_abs.reshape(n, 4),
+        elbow=s3_abs.reshape(n, ns * nw),
     )
 
 

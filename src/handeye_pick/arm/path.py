@@ -71,15 +71,15 @@ class JointPathRefused(SafetyRefusal):
 
 
 class TcpCurve(Protocol):
-    """A piece of a move the TCP drives (``scene.path.Piece`` is one): ``pose(s)`` the TCP
-    (``T_base_tcp``, m) at ``s`` in [0, 1], ``fraction(s)`` where that lies along the whole
-    move, and ``rate_m(reach_m)`` = travel + turn * reach_m per unit of ``s`` (m), which bounds
-    how fast a point ``reach_m`` from the TCP moves."""
+    """A piece of a move the TCP drives (``scene.path.Piece`` is one): ``poses(s)`` the TCP
+    (``T_base_tcp``, m) at every ``s`` (n,) in [0, 1], ``fraction(s)`` where that lies along
+    the whole move, and ``rate_m(reach_m)`` = travel + turn * reach_m per unit of ``s`` (m),
+    which bounds how fast a point ``reach_m`` from the TCP moves."""
 
     @property
     def what(self) -> str: ...
 
-    def pose(self, s: float) -> Transform: ...
+    def poses(self, s: NDArray[np.float64]) -> NDArray[np.float64]: ...
 
     def fraction(self, s: float) -> float: ...
 
@@ -88,12 +88,13 @@ class TcpCurve(Protocol):
 
 @dataclass(frozen=True)
 class JointPath:
-    """The joint angles ``q`` (n + 1, 6) rad at the n + 1 looks along a move ``what``, and
-    where each lies along the whole move (``fraction``, 0 to 1)."""
+    """The joint angles ``q`` (n + 1, 6) rad at the n + 1 looks along a move ``what``, where
+    each lies along the whole move (``fraction``, 0 to 1) and along its piece (``s``, 0 to 1)."""
 
     what: str
     q: Joints
     fraction: NDArray[np.float64]
+    s: NDArray[np.float64]
 
     @property
     def dq(self) -> Joints:
@@ -110,22 +111,72 @@ def steps_for(curve: TcpCurve) -> int:
     return max(1, math.ceil(travel / LINEAR_STEP_M), math.ceil(turn / TURN_STEP_RAD))
 
 
+@dataclass(frozen=True)
+class Looks:
+    """Where a moveL piece is looked at: ``s`` (n + 1,) along it, the TCP there
+    (``T_base_tcp``, (n + 1, 4, 4), m) and the model's eight branches at each."""
+
+    s: NDArray[np.float64]
+    T_base_tcp: NDArray[np.float64]
+    solved: Branches
+
+
+def looks(
+    model: ArmModel,
+    T_flange_tcp: Transform,
+    curves: Sequence[TcpCurve],
+    q_start: ArrayLike | None = None,
+) -> list[Looks]:
+    """The looks of every piece of ``curves`` (``steps_for`` steps each), their IK solved as
+    one batch: every branch, or with the joints ``q_start`` the arm starts the first piece
+    with, the branch nearest them alone (a path stays on its branch: leaving it is a
+    singularity, which ``follow`` refuses)."""
+    if not curves:
+        return []
+    s_all = [np.linspace(0.0, 1.0, steps_for(curve) + 1) for curve in curves]
+    T_all = [curve.poses(s) for curve, s in zip(curves, s_all, strict=True)]
+    T_base_flange = np.concatenate(T_all) @ invert(T_flange_tcp)
+    branch = None
+    if q_start is not None:
+        first = branches(model, T_base_flange[:1]).q[0]
+        gaps = np.abs(wrap(first - np.asarray(q_start, dtype=np.float64))).max(axis=1)
+        branch = None if np.all(np.isnan(gaps)) else int(np.nanargmin(gaps))
+    solved = branches(model, T_base_flange, branch)
+    out: list[Looks] = []
+    start = 0
+    for s, T in zip(s_all, T_all, strict=True):
+        part = slice(start, start + len(s))
+        start += len(s)
+        out.append(
+            Looks(
+                s,
+                T,
+                Branches(
+                    solved.q[part], solved.shoulder_m[part], solved.wrist[part],
+                    solved.elbow[part],
+                ),
+            )
+        )
+    return out
+
+
 def follow(
     model: ArmModel,
     T_flange_tcp: Transform,
     curve: TcpCurve,
     q_start: ArrayLike,
     q_end: ArrayLike | None = None,
+    seen: Looks | None = None,
 ) -> JointPath:
     """The joint path of a moveL piece from the joints ``q_start`` (rad: where the arm stands,
     or where the piece before ended). ``q_end``: the controller's IK at the piece's end when it
-    ends at a target (its branch must be the one followed). ``JointPathRefused`` where the arm
-    cannot follow."""
+    ends at a target (its branch must be the one followed). ``seen``: the piece's ``looks``
+    when they are solved already. ``JointPathRefused`` where the arm cannot follow."""
     start = np.asarray(q_start, dtype=np.float64)
-    s = np.linspace(0.0, 1.0, steps_for(curve) + 1)
-    T_base_tcp = np.stack([curve.pose(float(v)) for v in s])
-    fraction = np.array([curve.fraction(float(v)) for v in s])
-    solved = branches(model, T_base_tcp @ invert(T_flange_tcp))
+    if seen is None:
+        seen = looks(model, T_flange_tcp, [curve])[0]
+    s, T_base_tcp, solved = seen.s, seen.T_base_tcp, seen.solved
+    fraction = curve.fraction(0.0) + s * (curve.fraction(1.0) - curve.fraction(0.0))
 
     gaps = np.abs(wrap(solved.q[0] - start)).max(axis=1)
     branch = int(np.argmin(np.where(np.isnan(gaps), np.inf, gaps)))
@@ -156,7 +207,7 @@ def follow(
                 f"it ends on another branch than the controller's IK at the target (joint "
                 f"{joint + 1} {_degrees(apart[joint])} apart): the arm would turn another way",
             )
-    return JointPath(curve.what, q, fraction)
+    return JointPath(curve.what, q, fraction, s)
 
 
 def _first_problem(
@@ -205,8 +256,12 @@ def _first_problem(
         reached = tcp_poses(model, q, T_flange_tcp)
         off_m = np.linalg.norm(reached[:, :3, 3] - T_base_tcp[:, :3, 3], axis=1)
         relative = np.swapaxes(reached[:, :3, :3], 1, 2) @ T_base_tcp[:, :3, :3]
-        cos_turn = np.clip((np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0, -1.0, 1.0)
-        off_rad = np.arccos(cos_turn)
+        # atan2(sin, cos) of the turn between them: well conditioned near 0, where arccos of
+        # the cosine alone turns a target's round-off (1e-7 off orthonormal) into 4e-4 rad.
+        cos_turn = (np.trace(relative, axis1=1, axis2=2) - 1.0) / 2.0
+        skew = relative - np.swapaxes(relative, 1, 2)
+        sin_turn = np.linalg.norm(skew[:, [2, 0, 1], [1, 2, 0]], axis=1) / 2.0
+        off_rad = np.arctan2(sin_turn, cos_turn)
         first(
             (off_m > FOLLOW_TOLERANCE_M) | (off_rad > FOLLOW_TOLERANCE_RAD),
             "the joints found miss the TCP path by more than 0.01 mm (a defect: report it)",
@@ -240,7 +295,7 @@ def joint_move(what: str, q_from: ArrayLike, q_to: ArrayLike) -> JointPath:
     span = np.asarray(q_to, dtype=np.float64) - start
     n = max(1, math.ceil(float(np.abs(span).max()) / JOINT_STEP_RAD))
     fraction = np.linspace(0.0, 1.0, n + 1)
-    return JointPath(what, start + fraction[:, None] * span, fraction)
+    return JointPath(what, start + fraction[:, None] * span, fraction, fraction)
 
 
 def _degrees(angle_rad: float) -> str:

@@ -81,7 +81,9 @@ def run_fixed(
         )
         checks = check_steps(config, rounded, arm, state.fixed_verdicts, T_base_tcp_start)
         if T_base_tcp_start is not None:
-            checks = with_scene_checks(config, rounded, T_base_tcp_start, T_flange_tcp, checks)
+            checks = with_scene_checks(
+                config, rounded, T_base_tcp_start, T_flange_tcp, checks, arm.joint_positions()
+            )
         plan = {"operation": what, "config": str(config.path)}
         return Planned(rounded, checks, {**plan, "host": state.host}, T_base_tcp_start)
 

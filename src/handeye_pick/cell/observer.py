@@ -52,9 +52,15 @@ class CellObserver(Protocol):
         chosen (None: none passed) and why the others were refused."""
         ...
 
-    def on_plan(self, steps: Sequence[Step], T_base_tcp_start: Transform | None) -> None:
+    def on_plan(
+        self,
+        steps: Sequence[Step],
+        T_base_tcp_start: Transform | None,
+        q_actual: Sequence[float] | None = None,
+    ) -> None:
         """A sequence passed its checks and is about to run from ``T_base_tcp_start`` (None:
-        where the arm stands was not read)."""
+        where the arm stands was not read), the arm's joints ``q_actual`` (rad; None: not
+        read)."""
         ...
 
     def on_reached(self, name: str, T_target: Transform | None, T_reached: Transform) -> None:
@@ -112,8 +118,13 @@ class Contained:
     ) -> None:
         self.call(lambda o: o.on_candidates(plans, chosen, refused))
 
-    def on_plan(self, steps: Sequence[Step], T_base_tcp_start: Transform | None) -> None:
-        self.call(lambda o: o.on_plan(steps, T_base_tcp_start))
+    def on_plan(
+        self,
+        steps: Sequence[Step],
+        T_base_tcp_start: Transform | None,
+        q_actual: Sequence[float] | None = None,
+    ) -> None:
+        self.call(lambda o: o.on_plan(steps, T_base_tcp_start, q_actual))
 
     def on_reached(self, name: str, T_target: Transform | None, T_reached: Transform) -> None:
         self.call(lambda o: o.on_reached(name, T_target, T_reached))

@@ -75,7 +75,10 @@ def run_operation(
             }
         )
         if state.observer is not None:
-            state.observer.on_plan(planned.steps, planned.T_base_tcp_start)
+            scene = state.config.scene
+            arm_checked = scene is not None and scene.arm_checked
+            q_actual = state.link.arm.joint_positions() if arm_checked else None
+            state.observer.on_plan(planned.steps, planned.T_base_tcp_start, q_actual)
         done = None
         if not dry_run:
             done = execute(

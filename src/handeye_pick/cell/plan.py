@@ -209,16 +209,18 @@ def with_scene_checks(
     T_base_tcp_start: Transform,
     T_flange_tcp: Transform,
     checks: list[CheckResult],
+    q_actual: Sequence[float] | None = None,
 ) -> list[CheckResult]:
-    """``checks`` of a sequence of configured targets and, with a scene, the tool's sweep along
-    it from ``T_base_tcp_start`` (``scene.check.SceneCheck.check_tool``); raises
+    """``checks`` of a sequence of configured targets and, with a scene, the sweep of the tool
+    and the arm (from the controller's actual joints ``q_actual``, rad) along it from
+    ``T_base_tcp_start`` (``scene.check.SceneCheck.check_tool``); raises
     ``PreflightRefusal`` listing them all when a collision check fails."""
     if config.scene is None:
         return checks
     from handeye_pick.scene.check import SceneCheck
 
-    scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
-    results = checks + scene.check_tool(steps, T_base_tcp_start)
+    scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp, config.robot.model)
+    results = checks + scene.check_tool(steps, T_base_tcp_start, q_actual)
     if not all(r.passed for r in results):
         raise PreflightRefusal(results)
     return results
@@ -337,6 +339,7 @@ class _Trial:
     grip: bool
     blend: bool
     scene: SceneCheck | None
+    q_actual: tuple[float, ...] | None  # the controller's joints (rad) when the arm is checked
 
     def sequence(self, plan: PickPlan) -> list[Step]:
         """The pick of ``plan`` and, when the cell places, its place; corners blended."""
@@ -398,7 +401,12 @@ def _try_alternatives(
                 continue
             steps = trial.sequence(alt_plan)
             collision = scene.check(
-                steps, trial.T_base_tcp_start, part_size, plan.T_base_obj, alt.T_base_tcp
+                steps,
+                trial.T_base_tcp_start,
+                part_size,
+                plan.T_base_obj,
+                alt.T_base_tcp,
+                trial.q_actual,
             )
             if all(r.passed for r in collision):
                 passing.append((turn, alt, alt_plan, steps, collision))
@@ -447,8 +455,9 @@ def choose(
     """The first candidate whose whole sequence (the pick, then the place at
     ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
     and the refusals of those before it. With a scene (``config.scene``), the sequence must
-    also keep clear of it (``handeye_pick.scene``), and a candidate's grasp alternatives are
-    tried before it is refused.
+    also keep clear of it (``handeye_pick.scene``: the tool, the part and, unless
+    ``scene.arm: unchecked``, the arm's links from the controller's actual joints), and a
+    candidate's grasp alternatives are tried before it is refused.
 
     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
     ``grip`` False leaves the gripper out of the steps (a touch test), ``blend`` False keeps
@@ -460,7 +469,7 @@ def choose(
     if config.scene is not None:  # python-fcl is imported only by a cell that has a scene
         from handeye_pick.scene.check import SceneCheck
 
-        scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp)
+        scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp, config.robot.model)
     trial = _Trial(
         config,
         arm,
@@ -470,6 +479,7 @@ def choose(
         grip,
         blend,
         scene,
+        arm.joint_positions() if scene is not None and scene.arm is not None else None,
     )
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):

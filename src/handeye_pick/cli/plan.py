@@ -57,7 +57,7 @@ def run_plan(args: argparse.Namespace) -> int:
     from handeye_pick.cloud.files import read_cloud
     from handeye_pick.geometry import compose
     from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
-    from handeye_pick.scene.layout import scene_boxes
+    from handeye_pick.scene.layout import arm_not_checked, scene_boxes
 
     cell = Cell(args.config, progress=progress_from_args(args))
     config, calibration = cell.config, cell.calibration
@@ -89,16 +89,19 @@ def run_plan(args: argparse.Namespace) -> int:
     )
     render_scene(scene, args.plot)
     outside = cell.outside_workspace(plan)
+    unchecked = arm_not_checked(config.scene) if config.scene is not None else None
     if args.json:
         args.report.update(
             plot=str(args.plot),
             flange_source=flange_source,
             **plan_fields(plan),
             outside_workspace=outside,
+            **({"arm": unchecked} if unchecked is not None else {}),
         )
     else:
         lines = [f"plan drawn to {args.plot} (flange from {flange_source}; nothing moved)"]
         lines += _plan_lines(plan)
+        lines += [f"  scene: {unchecked}"] if unchecked is not None else []
         lines += [
             f"  warning: {name} outside the workspace: {why}" for name, why in outside.items()
         ]

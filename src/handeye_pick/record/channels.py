@@ -3,7 +3,8 @@
 Frames: ``base`` (the robot base), ``flange``, ``tcp``, ``cam`` (eye-in-hand a child of
 ``flange``, eye-to-hand of ``base``), ``capture_flange`` and ``capture_cam`` (the flange and the
 camera where the latest eye-in-hand image was taken). Scene entities of ``/cell/candidates``,
-``/cell/plan``, ``/cell/reached`` and ``/cell/scene`` are in ``base``. Units: poses float64 4x4
+``/cell/plan`` (with the arm's link solids at each stop of the plan), ``/cell/reached`` and
+``/cell/scene`` are in ``base``. Units: poses float64 4x4
 in metres go out as metres and unit quaternions (x, y, z, w), as the viewers expect; a camera
 cloud (mm) goes out in metres as float32 x, y, z. Stamps are nanoseconds since the Unix epoch.
 """
@@ -18,6 +19,7 @@ from foxglove.messages import (
     ArrowPrimitive,
     Color,
     CubePrimitive,
+    CylinderPrimitive,
     FrameTransform,
     FrameTransforms,
     LinePrimitive,
@@ -32,15 +34,18 @@ from foxglove.messages import (
     SceneEntityDeletion,
     SceneEntityDeletionType,
     SceneUpdate,
+    SpherePrimitive,
     TextPrimitive,
     Timestamp,
     Vector3,
 )
 from numpy.typing import NDArray
 
+from handeye_pick.arm.kinematics import link_poses
 from handeye_pick.cell.plan import CandidateRefusal, PickPlan, step_error
 from handeye_pick.config.schema import CellConfig
-from handeye_pick.geometry import Transform, rotation_from_quaternion
+from handeye_pick.geometry import Transform, compose, make_transform, rotation_from_quaternion
+from handeye_pick.scene.arm_legs import LegRefused, legs, start_joints
 from handeye_pick.scene.layout import scene_boxes
 from handeye_pick.steps import Move, Step
 
@@ -58,6 +63,7 @@ PATH = Color(r=0.2, g=0.5, b=1.0, a=1.0)
 REACHED = Color(r=1.0, g=0.75, b=0.0, a=1.0)
 WORKSPACE = Color(r=0.3, g=0.6, b=1.0, a=0.08)
 OBSTACLE = Color(r=0.55, g=0.55, b=0.55, a=0.6)
+ARM = Color(r=0.35, g=0.45, b=0.75, a=0.35)
 
 
 def _turn(qx: float, qy: float, qz: float, qw: float) -> Transform:
@@ -181,10 +187,14 @@ def candidates_update(
 
 
 def plan_update(
-    steps: Sequence[Step], T_base_tcp_start: Transform | None, time_ns: int
+    steps: Sequence[Step],
+    T_base_tcp_start: Transform | None,
+    time_ns: int,
+    arm: Sequence[SceneEntity] = (),
 ) -> SceneUpdate:
     """Every moveL target of a sequence as labelled axes, and the planned TCP path as a line
-    from ``T_base_tcp_start`` (when known) through them, blended corners drawn round."""
+    from ``T_base_tcp_start`` (when known) through them, blended corners drawn round; ``arm``:
+    the arm at its stops (``arm_entities``)."""
     moves = [step for step in steps if isinstance(step, Move)]
     entities = [
         SceneEntity(
@@ -208,7 +218,56 @@ def plan_update(
         entities.append(
             SceneEntity(timestamp=stamp(time_ns), frame_id=BASE, id="path", lines=[line])
         )
-    return SceneUpdate(deletions=[_delete_all(time_ns)], entities=entities)
+    return SceneUpdate(deletions=[_delete_all(time_ns)], entities=[*entities, *arm])
+
+
+def arm_entities(
+    config: CellConfig,
+    steps: Sequence[Step],
+    T_base_tcp_start: Transform,
+    q_actual: Sequence[float],
+    time_ns: int,
+) -> list[SceneEntity]:
+    """The arm's link solids (capsules as a cylinder and two spheres, cylinders) at the start
+    and at the end of every move of ``steps``, at the joints the scene check follows from the
+    controller's actual joints ``q_actual`` (rad); none without ``robot.model`` or where the
+    arm cannot follow the sequence (the check refused it)."""
+    model = config.robot.model
+    if model is None:
+        return []
+    T_flange_tcp = config.robot.T_flange_tcp
+    q_start = start_joints(model, T_flange_tcp, T_base_tcp_start, q_actual)
+    try:
+        driven = legs(model, T_flange_tcp, steps, T_base_tcp_start, q_start)
+    except LegRefused:
+        return []
+    ends = {leg.move: leg.path.q[-1] for leg in driven}  # a move's last piece ends at its target
+    stops = [("start", q_start), *ends.items()]
+    poses = link_poses(model, np.array([q for _, q in stops]))
+    entities = []
+    for (name, _), at_stop in zip(stops, poses, strict=True):
+        cylinders, spheres = [], []
+        for link, T in zip(model.links, at_stop, strict=True):
+            diameter = 2.0 * link.radius_m
+            size = Vector3(x=diameter, y=diameter, z=link.length_m)
+            cylinders.append(CylinderPrimitive(
+                pose=pose_of(T), size=size, bottom_scale=1.0, top_scale=1.0, color=ARM
+            ))
+            if link.kind == "capsule":
+                ball = Vector3(x=diameter, y=diameter, z=diameter)
+                spheres += [
+                    SpherePrimitive(
+                        pose=pose_of(compose(T, make_transform(np.eye(3), [0, 0, end]))),
+                        size=ball,
+                        color=ARM,
+                    )
+                    for end in (-link.length_m / 2.0, link.length_m / 2.0)
+                ]
+        entities.append(SceneEntity(
+            timestamp=stamp(time_ns), frame_id=BASE, id=f"arm at {name}",
+            cylinders=cylinders, spheres=spheres,
+        ))
+    return entities
 
 
 def path_points(

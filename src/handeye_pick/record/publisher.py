@@ -190,9 +190,23 @@ class Publisher:
             lambda: self._candidates.log(ch.candidates_update(kept[0], chosen, kept[1], now))
         )
 
-    def on_plan(self, steps: Sequence[Step], T_base_tcp_start: Transform | None) -> None:
+    def on_plan(
+        self,
+        steps: Sequence[Step],
+        T_base_tcp_start: Transform | None,
+        q_actual: Sequence[float] | None = None,
+    ) -> None:
         now, kept = _now_ns(), list(steps)
-        self._submit(lambda: self._plan.log(ch.plan_update(kept, T_base_tcp_start, now)))
+
+        def log() -> None:  # on the recorder's thread: the arm's joints take milliseconds
+            arm = (
+                ch.arm_entities(self._config, kept, T_base_tcp_start, q_actual, now)
+                if T_base_tcp_start is not None and q_actual is not None
+                else []
+            )
+            self._plan.log(ch.plan_update(kept, T_base_tcp_start, now, arm))
+
+        self._submit(log)
 
     def on_reached(self, name: str, T_target: Transform | None, T_reached: Transform) -> None:
         now = _now_ns()

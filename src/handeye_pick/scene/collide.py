@@ -182,6 +182,21 @@ class Group:
         return self._keep[contact]
 
 
+def refusal_detail(solid: str, obstacle: str, where: str, distance_m: float, keep_m: float) -> str:
+    """How a refusal says that ``solid`` comes ``distance_m`` (negative: into) from
+    ``obstacle`` ``where`` (``at 40 % of the grasp descent``), keeping ``keep_m``."""
+    if distance_m < 0.0:
+        return f"{solid} would come {-distance_m * 1000.0:.0f} mm into {obstacle} {where}"
+    keep_mm = keep_m * 1000.0
+    detail = f"{solid} would pass {distance_m * 1000.0:.1f} mm from {obstacle} {where}"
+    if distance_m < keep_m:
+        return detail + f", closer than the {keep_mm:g} mm it must keep"
+    # within the clearance's last fraction, where the sweep cannot prove it kept
+    return detail + (
+        f", less than {PROOF_TOLERANCE_M * 1000.0:g} mm beyond the {keep_mm:g} mm it must keep"
+    )
+
+
 def _refusal(
     sweep: Sweep, piece: Piece, group: Group, found: tuple[float, _Nearest]
 ) -> CheckResult:
@@ -189,22 +204,7 @@ def _refusal(
     solid = group.solids[found[1].solid]
     obstacle = sweep.obstacles[found[1].obstacle].label
     where = f"at {piece.fraction(worst.s) * 100.0:.0f} % of {piece.what}"
-    if worst.distance_m < 0.0:
-        detail = (
-            f"{solid.label} would come {-worst.distance_m * 1000.0:.0f} mm into {obstacle} {where}"
-        )
-    else:
-        keep_mm = worst.keep_m * 1000.0
-        detail = (
-            f"{solid.label} would pass {worst.distance_m * 1000.0:.1f} mm from {obstacle} {where}"
-        )
-        if worst.distance_m < worst.keep_m:
-            detail += f", closer than the {keep_mm:g} mm it must keep"
-        else:  # within the clearance's last fraction, where the sweep cannot prove it kept
-            detail += (
-                f", less than {PROOF_TOLERANCE_M * 1000.0:g} mm beyond the {keep_mm:g} mm "
-                "it must keep"
-            )
+    detail = refusal_detail(solid.label, obstacle, where, worst.distance_m, worst.keep_m)
     return CheckResult(CHECK, piece.move, False, detail)
 
 

@@ -51,8 +51,17 @@ def scene_boxes(scene: SceneConfig) -> list[Box]:
     return out
 
 
+def arm_not_checked(scene: SceneConfig) -> str | None:
+    """Why the arm's links are not checked (None: they are), as the checks of a plan, its
+    record, ``plan`` and ``status`` say it."""
+    if scene.arm_checked:
+        return None
+    return "the arm is not checked (scene.arm: unchecked): only the tool and the held part are"
+
+
 def describe_scene(scene: SceneConfig, tool_solids: int) -> str:
-    """One line for ``status``: the bins, the boxes, the floor, the clearance, the tool."""
+    """One line for ``status``: the bins, the boxes, the floor, the clearance, the tool, and
+    whether the arm's links are checked (``scene.arm``)."""
     parts = [
         f"bin '{b.name}' ({' x '.join(f'{v:g}' for v in b.inner_mm)} mm inside)"
         for b in scene.bins
@@ -60,6 +69,8 @@ def describe_scene(scene: SceneConfig, tool_solids: int) -> str:
     parts += [f"box '{b.name}'" for b in scene.boxes]
     if scene.floor_z_mm is not None:
         parts.append(f"floor at z {scene.floor_z_mm:g} mm")
+    arm = arm_not_checked(scene) or "the arm's links checked too"
     return (
-        f"{', '.join(parts)}; clearance {scene.clearance_mm:g} mm; tool of {tool_solids} solids"
+        f"{', '.join(parts)}; clearance {scene.clearance_mm:g} mm; tool of {tool_solids} "
+        f"solids; {arm}"
     )

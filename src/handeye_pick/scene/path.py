@@ -80,6 +80,30 @@ class Piece:
             )
         return T
 
+    def poses(self, s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``pose`` at every ``s`` of an array (n,) at once: (n, 4, 4)."""
+        f = self.f0 + s * (self.f1 - self.f0)
+        start, end = self.T_from[:3, 3], self.T_to[:3, 3]
+        T = np.zeros((len(f), 4, 4))
+        T[:, 3, 3] = 1.0
+        if self.control_m is None:
+            T[:, :3, 3] = start + f[:, None] * (end - start)
+        else:
+            T[:, :3, 3] = (
+                ((1 - f) ** 2)[:, None] * start
+                + (2 * f * (1 - f))[:, None] * self.control_m
+                + (f**2)[:, None] * end
+            )
+        angle, K, K2 = self._turn
+        theta = f * angle
+        turn = (
+            _I3
+            + np.sin(theta)[:, None, None] * K
+            + (1 - np.cos(theta))[:, None, None] * K2
+        )
+        T[:, :3, :3] = self.T_from[:3, :3] @ turn
+        return T
+
     def fraction(self, s: float) -> float:
         """Where ``s`` lies along the whole move (a blend: along the curve), 0 to 1."""
         return self.f0 + s * (self.f1 - self.f0)
