@@ -54,8 +54,9 @@ from handeye_pick.robot.ur.worker import Sample
 
 log = logging.getLogger(__name__)
 
-POLL_PERIOD_S = 0.004
-"""How often a running move is watched: two RTDE cycles at 500 Hz."""
+POLL_PERIOD_S = 0.002
+"""How often a running move is watched: every RTDE cycle at 500 Hz (a move's end is seen within
+a cycle or two, not four)."""
 REACHED_TOLERANCE_M = 0.001
 REACHED_TOLERANCE_RAD = math.radians(0.5)
 """A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
