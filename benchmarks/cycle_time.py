@@ -9,29 +9,37 @@ centimetres of the bin's centre. The simulated controller runs on 127.0.0.246 (`
 same factor and every time printed is multiplied back, so the figures are real-speed cycle times
 (the software's own time is multiplied too: the figures err on the slow side).
 
-Variants, side by side in one run:
+Variants, side by side in one run, each waited for by the client and with vision under motion:
 
-- (a) stop-and-go: ``motion.blend_mm: 0`` (every target a stop) and a client that waits for each
-  reply: capture, acquire, detect, pick (which places), next.
-- (b) blended: ``blend_mm: 50`` (radii limited as docs/motion.md says), the same client.
-- (c) blended, vision under motion. Eye-in-hand: the pick keeps the part (``"place": false``);
-  the client captures at once, from the capture pose above the bin with the part in hand, and
-  as soon as the acquisition returns sends ``place`` and detects while the arm places; the next
-  pick waits in ``run``'s queue and plans from the pose latched at the image. Eye-to-hand: the
-  camera is fixed, so the client acquires and detects on the pick's ``view-clear`` event (the
-  arm has left the camera's view after the retreat) and queues the next pick while the arm
-  places.
-- (d) the floor: (c)'s controller motion time per cycle (from the simulator's motion record)
-  plus the stops motion cannot hide: the gripper's switching and, eye-in-hand, the acquisition
-  (the camera needs a still arm); detection fully hidden.
+- stop-and-go: ``motion.blend_mm: 0`` (every target a stop);
+- blended always: ``blend_mm: 50`` (radii limited as docs/motion.md says) and
+  ``blend_always: true``: every stretch of corners sent as one path, whatever its start costs;
+- blended where it pays: ``blend_mm: 50``: a stretch goes as one path only where the session's
+  motion-time model says its corners save more than the path start it measured at connect
+  (docs/motion.md, "Blend only where it pays").
+
+The client that waits: capture, acquire, detect, pick (which places), next. Vision under motion:
+eye-in-hand, the pick keeps the part (``"place": false``); the client captures at once, from the
+capture pose above the bin with the part in hand, and as soon as the acquisition returns sends
+``place`` and detects while the arm places; the next pick waits in ``run``'s queue and plans from
+the pose latched at the image. Eye-to-hand: the camera is fixed, so the client acquires and
+detects on the pick's ``view-clear`` event (the arm has left the camera's view after the retreat)
+and queues the next pick while the arm places.
+
+The floor of a variant with vision under motion: its controller motion time per cycle (from the
+simulator's motion record), the stops motion cannot hide (the gripper's switching and,
+eye-in-hand, the acquisition: the camera needs a still arm) and the start of every path it sent
+(the profile's start cost for the uploaded script); detection fully hidden.
 
 The simulated controller charges a program start as its profile says (``program_start_cost``,
 mocks/ur_controller/README.md "Program start cost"): every path ur_rtde uploads starts that
 long after it arrives, as on a real controller; the figure used is printed.
 
-Prints per variant the median cycle time (p90), picks per hour, and c/d and c/a. Goals
-(issue 18): c within 5 % of d, c at most 0.7 of a.
-Run: ``.venv/bin/python benchmarks/cycle_time.py [--cycles 20] [--speed-factor 2]``.
+Prints per variant the median cycle time (p90), picks per hour and paths per cycle, each
+overlapped variant's floor, and the best variant against its floor and against stop-and-go.
+Goals (issue 29): the best variant within 2 % of its floor; blending where it pays never slower
+than stop-and-go.
+Run: ``.venv/bin/python benchmarks/cycle_time.py [--cycles 10] [--speed-factor 1]``.
 """
 
 from __future__ import annotations
@@ -79,7 +87,27 @@ class Mode:
     eye_in_hand: bool
 
 
-def cell_yaml(folder: Path, mode: Mode, blend_mm: float, factor: float, host: str) -> str:
+@dataclass(frozen=True)
+class Variant:
+    """How the cell blends and how the client drives it."""
+
+    label: str
+    blend_mm: float
+    always: bool  # motion.blend_always
+    overlap: bool  # vision under motion
+
+
+VARIANTS = [
+    Variant("stop-and-go", 0.0, False, False),
+    Variant("blended always", 50.0, True, False),
+    Variant("blended where it pays", 50.0, False, False),
+    Variant("stop-and-go, vision under motion", 0.0, False, True),
+    Variant("blended always, vision under motion", 50.0, True, True),
+    Variant("where it pays, vision under motion", 50.0, False, True),
+]
+
+
+def cell_yaml(folder: Path, mode: Mode, variant: Variant, factor: float, host: str) -> str:
     if mode.eye_in_hand:
         hand_eye = f"  mode: eye-in-hand\n  file: {ROOT / 'config/loop/hand_eye.yaml'}\n"
         capture = "  pose: capture\n"
@@ -98,7 +126,8 @@ robot:
 hand_eye:
 {hand_eye}  units: mm
 grasp: {{approach_mm: 100, retreat_mm: 100}}
-motion: {{speed_mps: 1.0, accel_mps2: 3.0, grasp_speed_mps: 0.25, blend_mm: {blend_mm}}}
+motion: {{speed_mps: 1.0, accel_mps2: 3.0, grasp_speed_mps: 0.25, blend_mm: {variant.blend_mm},
+         blend_always: {str(variant.always).lower()}}}
 workspace: {{min_mm: [-750, -500, 20], max_mm: [0, 500, 600], max_tilt_deg: 10}}
 audit: {{file: {folder / 'picks.jsonl'}}}
 poses:
@@ -230,16 +259,25 @@ class Client:
         return list(np.diff(ends))
 
 
+@dataclass(frozen=True)
+class Measured:
+    """One variant's run: cycle times and, per cycle, the controller's motion time and the
+    paths sent (s, real speed)."""
+
+    times: list[float]
+    moving_s: float
+    paths: float
+
+
 def run_variant(
-    mode: Mode, variant: str, cycles: int, factor: float, seed: int, host: str
-) -> tuple[list[float], float]:
-    """Cycle times (s, real speed) and the controller's motion time per cycle (s, real speed)."""
-    blend_mm = 0.0 if variant == "a" else 50.0
+    mode: Mode, variant: Variant, cycles: int, factor: float, seed: int, host: str
+) -> Measured:
+    """Cycle times (s, real speed), the controller's motion time and the paths per cycle."""
     with tempfile.TemporaryDirectory() as tmp, SimulatedController(
         host=host, tcp_offset=TCP_OFFSET, speed_factor=factor, program_start_cost=True
     ) as ctl:
         folder = Path(tmp)
-        (folder / "cell.yaml").write_text(cell_yaml(folder, mode, blend_mm, factor, host))
+        (folder / "cell.yaml").write_text(cell_yaml(folder, mode, variant, factor, host))
         process = subprocess.Popen(
             [*CLI, "run", "--config", str(folder / "cell.yaml")],
             cwd=ROOT,
@@ -250,8 +288,8 @@ def run_variant(
         try:
             client = Client(Pipe(process), mode, folder, factor, seed)
             client.ask({"op": "capture"})  # to the capture pose: the first cycle starts there
-            first_motion = len(ctl.motions)
-            if variant != "c":
+            first_motion, first_command = len(ctl.motions), len(ctl.commands)
+            if not variant.overlap:
                 times = client.stop_and_go(cycles)
             elif mode.eye_in_hand:
                 times = client.eye_in_hand_overlap(cycles)
@@ -259,10 +297,11 @@ def run_variant(
                 times = client.eye_to_hand_overlap(cycles)
             # Controller time runs at wall speed; the arm covers its path factor times faster.
             moving_s = factor * sum(m["moving_s"] for m in ctl.motions[first_motion:])
+            paths = sum(c["kind"] == "movePath" for c in ctl.commands[first_command:])
         finally:
             process.kill()
             process.wait()
-    return [t * factor for t in times], moving_s / cycles
+    return Measured([t * factor for t in times], moving_s / cycles, paths / cycles)
 
 
 def _median_p90(values: list[float]) -> tuple[float, float]:
@@ -272,8 +311,10 @@ def _median_p90(values: list[float]) -> tuple[float, float]:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cycles", type=int, default=20, help="cycles per variant (default 20)")
-    parser.add_argument("--speed-factor", type=float, default=2.0, help="simulated speed (2)")
+    parser.add_argument("--cycles", type=int, default=10, help="cycles per variant (default 10)")
+    # At 1: the session measures a path's start in wall-clock time and its motion-time model
+    # counts real-speed time; at another speed the two disagree and skew where blending pays.
+    parser.add_argument("--speed-factor", type=float, default=1.0, help="simulated speed (1)")
     parser.add_argument("--seed", type=int, default=1, help="where the parts lie (default 1)")
     parser.add_argument("--host", default=HOST, help=f"simulated controller address ({HOST})")
     args = parser.parse_args()
@@ -292,37 +333,40 @@ def main() -> None:
         f"{SCRIPT_LINES * per_line_s:.2f} s for each path's {SCRIPT_LINES}-line upload (an "
         f"estimate, mocks/ur_controller/README.md)"
     )
+    path_start_s = SCRIPT_LINES * per_line_s
     for mode in (Mode("eye-in-hand", True), Mode("eye-to-hand", False)):
         try:
             results = {
-                v: run_variant(mode, v, args.cycles, factor, args.seed, args.host) for v in "abc"
+                v: run_variant(mode, v, args.cycles, factor, args.seed, args.host)
+                for v in VARIANTS
             }
         except (RuntimeError, TimeoutError, OSError) as exc:
             sys.exit(f"cycle_time: {mode.name} did not run through: {exc}")
-        moving_c = results["c"][1]
-        floor_s = moving_c + 2 * GRIPPER_S + (ACQUISITION_S if mode.eye_in_hand else 0.0)
+        unavoidable_s = 2 * GRIPPER_S + (ACQUISITION_S if mode.eye_in_hand else 0.0)
         print(f"{mode.name}:")
-        labels = {
-            "a": "(a) stop-and-go, client waits",
-            "b": "(b) blended",
-            "c": "(c) blended, vision under motion",
+        medians = {v: statistics.median(m.times) for v, m in results.items()}
+        floors = {
+            v: m.moving_s + unavoidable_s + m.paths * path_start_s
+            for v, m in results.items()
+            if v.overlap
         }
-        for variant, label in labels.items():
-            times, moving_s = results[variant]
-            median, p90 = _median_p90(times)
+        for variant, measured in results.items():
+            median, p90 = _median_p90(measured.times)
+            floor = f"  floor {floors[variant]:5.2f} s" if variant in floors else ""
             print(
-                f"  {label:<34} median {median:5.2f} s  p90 {p90:5.2f} s  "
-                f"{3600.0 / median:6.0f} picks/h  (arm moving {moving_s:4.2f} s, "
-                f"{moving_s / median:4.0%})"
+                f"  {variant.label:<36} median {median:5.2f} s  p90 {p90:5.2f} s  "
+                f"{3600.0 / median:6.0f} picks/h  (arm moving {measured.moving_s:4.2f} s, "
+                f"{measured.paths:3.1f} paths){floor}"
             )
+        best = min(floors, key=lambda v: medians[v])
+        pays_overlap, always_overlap, stop_overlap = VARIANTS[5], VARIANTS[4], VARIANTS[3]
         print(
-            f"  {'(d) floor: motion + unavoidable':<34} {floor_s:5.2f} s           "
-            f"{3600.0 / floor_s:6.0f} picks/h"
+            f"  best: {best.label}, {medians[best] / floors[best]:.3f} x its floor; where it "
+            f"pays / stop-and-go {medians[VARIANTS[2]] / medians[VARIANTS[0]]:.3f} (client "
+            f"waits), {medians[pays_overlap] / medians[stop_overlap]:.3f} (vision under "
+            f"motion); always / stop-and-go {medians[always_overlap] / medians[stop_overlap]:.3f}"
+            " (vision under motion)"
         )
-        c_median = statistics.median(results["c"][0])
-        a_median = statistics.median(results["a"][0])
-        print(f"  c/d {c_median / floor_s:.3f}   c/a {c_median / a_median:.3f}")
-
 
 if __name__ == "__main__":
     main()

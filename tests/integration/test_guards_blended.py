@@ -53,7 +53,10 @@ from tests.integration.test_pick_cli import (
 SimFactory = Callable[..., SimulatedController]
 DETECTION = DEMO / "detection.yaml"
 BLEND_MM = 20.0
-BLENDED = f"  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n  blend_mm: {BLEND_MM}\n"
+BLENDED = (
+    f"  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n  blend_mm: {BLEND_MM}\n"
+    "  blend_always: true\n"  # paths whatever a path start costs
+)
 
 
 def _paths(ctl: SimulatedController) -> list[dict[str, Any]]:

@@ -26,7 +26,10 @@ from tests.integration.test_gripper_pick import (
 from tests.integration.test_pick_cli import DEMO, TCP_OFFSET, audit_records
 
 SimFactory = Callable[..., SimulatedController]
-BLENDED = "  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n  blend_mm: 20\n"
+BLENDED = (
+    "  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n  blend_mm: 20\n"
+    "  blend_always: true\n"  # paths whatever a path start costs
+)
 
 
 class Heard:

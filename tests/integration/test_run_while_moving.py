@@ -32,7 +32,7 @@ BLEND_MM = 20.0
 STRAIGHT_MM = 20.0  # grasp.straight_mm's default for a gripper without fingers
 BLENDED = {
     "motion": "  speed_mps: 0.25\n  accel_mps2: 1.2\n  grasp_speed_mps: 0.1\n"
-    f"  blend_mm: {BLEND_MM}\n",
+    f"  blend_mm: {BLEND_MM}\n  blend_always: true\n",  # paths whatever a start costs
     # The place retreat ends short of the place approach: the arm stands there, not at a corner.
     "place": "  poses: [[-0.3, 0.35, 0.15, 3.14159265, 0, 0]]\n  approach_mm: 80\n"
     "  retreat_mm: 50\n",

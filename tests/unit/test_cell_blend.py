@@ -38,11 +38,13 @@ def _at(x: float, y: float, z: float) -> Transform:
 
 
 def _blended_config(tmp_path: Path, blend_mm: float, extra: str = PLACE, straight: str = ""):  # type: ignore[no-untyped-def]
-    """The scripted cell with ``motion.blend_mm`` (and ``grasp.straight_mm``) set."""
+    """The scripted cell with ``motion.blend_mm`` (and ``grasp.straight_mm``) set, every
+    stretch of corners sent as a path (``blend_always``: these tests are about paths)."""
     config = _config(tmp_path, gripper=GRIPPER, extra=extra)
     text = config.path.read_text()
     text = text.replace(
-        "  grasp_speed_mps: 0.05\n", f"  grasp_speed_mps: 0.05\n  blend_mm: {blend_mm}\n"
+        "  grasp_speed_mps: 0.05\n",
+        f"  grasp_speed_mps: 0.05\n  blend_mm: {blend_mm}\n  blend_always: true\n",
     )
     text = text.replace("  retreat_mm: 80\n", f"  retreat_mm: 80\n{straight}", 1)
     config.path.write_text(text)

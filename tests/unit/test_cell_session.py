@@ -112,6 +112,12 @@ class ScriptedArm:
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
         return True
 
+    def path_start_s(self) -> float | None:
+        return 0.0  # a scripted path starts at once: corners pay wherever they save time
+
+    def measure_path_start(self) -> float:
+        return 0.0
+
     def move_linear(
         self,
         T_base_tcp: Transform,

@@ -87,6 +87,10 @@ class Link:
                     T_base_tcp = self._arm.tcp_pose()
                     q = self._arm.joint_positions()  # the same sample or a newer one
                     check_tcp_agrees(robot.model, q, T_base_tcp, robot.T_flange_tcp, robot.host)
+                if self._config.motion.blend_mm > 0:
+                    # Corners are sent only where they save more than a path's start costs on
+                    # this controller (cell/stretch.py): measured now, the arm at rest.
+                    self._arm.measure_path_start()
                 self.gripper = connect_gripper(
                     robot.gripper, robot.host, self._arm, self._progress.say
                 )

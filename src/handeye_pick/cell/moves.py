@@ -76,8 +76,11 @@ def run_fixed(
         # path is swept against a scene.
         swept = config.scene is not None
         T_base_tcp_start = arm.tcp_pose() if config.motion.blend_mm > 0 or swept else None
+        path_start_s = state.path_start_s()
         rounded = (
-            blended(config, steps, T_base_tcp_start) if T_base_tcp_start is not None else steps
+            blended(config, steps, T_base_tcp_start, path_start_s)
+            if T_base_tcp_start is not None
+            else steps
         )
         checks = check_steps(config, rounded, arm, state.fixed_verdicts, T_base_tcp_start)
         if T_base_tcp_start is not None:
@@ -85,7 +88,9 @@ def run_fixed(
                 config, rounded, T_base_tcp_start, T_flange_tcp, checks, arm.joint_positions()
             )
         plan = {"operation": what, "config": str(config.path)}
-        return Planned(rounded, checks, {**plan, "host": state.host}, T_base_tcp_start)
+        return Planned(
+            rounded, checks, {**plan, "host": state.host}, T_base_tcp_start, path_start_s
+        )
 
     def finish(done: Executed | None) -> dict[str, object]:
         if done is not None:

@@ -10,7 +10,12 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
-from handeye_pick.cell.records import audited_outcome, blends_record, steps_record
+from handeye_pick.cell.records import (
+    audited_outcome,
+    blends_record,
+    steps_record,
+    stretches_record,
+)
 from handeye_pick.cell.sequence import Executed, execute
 from handeye_pick.cell.state import CellState
 from handeye_pick.geometry import Transform
@@ -28,6 +33,8 @@ class Planned:
     checks: list[CheckResult]
     record: dict[str, object]
     T_base_tcp_start: Transform | None = None  # where the TCP stands as it starts (m), if known
+    path_start_s: float | None = None  # the path start cost corners were weighed against (s);
+    # None: every target planned as a stop (no blending, a touch test)
 
 
 Prepare = Callable[[Transform, dict[str, object], dict[str, object]], Planned]
@@ -71,6 +78,9 @@ def run_operation(
                 **planned.record,
                 "targets": steps_record(planned.steps),
                 **blends_record(planned.steps),
+                **stretches_record(
+                    state.config, planned.steps, planned.T_base_tcp_start, planned.path_start_s
+                ),
                 "checks": [asdict(check) for check in planned.checks],
             }
         )

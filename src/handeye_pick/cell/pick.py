@@ -127,6 +127,7 @@ def _prepare(
     # A refusal of targets chained from the live pose says so, and how to give the capture pose
     # (a touch test has no capture pose to give: it touches what the camera sees now).
     note = live_pose_note(capture) if pick.touch is None else ""
+    path_start_s = state.path_start_s()
     try:
         chosen, pick.refused = choose(
             config,
@@ -139,6 +140,7 @@ def _prepare(
             T_base_tcp_place=state.next_place_pose(place) if place is not None else None,
             grip=pick.touch is None,
             blend=pick.touch is None,  # a touch test stops at every target
+            path_start_s=path_start_s,
             standoff_m=pick.touch.standoff_m if pick.touch is not None else 0.0,
             on_plan=planned,
         )
@@ -176,6 +178,7 @@ def _prepare(
             **chosen.alternative_record(),
         },
         compose(T_base_flange, T_flange_tcp),
+        path_start_s if pick.touch is None else None,
     )
 
 

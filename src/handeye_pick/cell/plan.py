@@ -18,6 +18,7 @@ import numpy as np
 
 from handeye_pick.cell.blend import corners, with_blends
 from handeye_pick.cell.grasp import backed_off, plan_targets
+from handeye_pick.cell.stretch import Stretch, paying_blends
 from handeye_pick.config.schema import (
     PICK_MOVES,
     PLACE_MOVES,
@@ -159,15 +160,27 @@ def place_steps(T_base_tcp_place: Transform, place: PlaceConfig, *, grip: bool) 
     return steps
 
 
-def blended(config: CellConfig, steps: Sequence[Step], T_base_tcp_start: Transform) -> list[Step]:
+def blended(
+    config: CellConfig, steps: Sequence[Step], T_base_tcp_start: Transform, path_start_s: float
+) -> list[Step]:
     """``steps`` with their corners rounded as ``motion.blend_mm`` and ``grasp.straight_mm``
-    allow (``blend.with_blends``), for a TCP standing at ``T_base_tcp_start``."""
-    return with_blends(
+    allow (``blend.with_blends``), for a TCP standing at ``T_base_tcp_start``, kept only in the
+    stretches where they save more than a path start costs (``path_start_s``, s;
+    ``stretch.paying_blends``)."""
+    return blended_stretches(config, steps, T_base_tcp_start, path_start_s)[0]
+
+
+def blended_stretches(
+    config: CellConfig, steps: Sequence[Step], T_base_tcp_start: Transform, path_start_s: float
+) -> tuple[list[Step], list[Stretch]]:
+    """``blended``'s steps and the choice it made for each stretch of corners."""
+    rounded = with_blends(
         steps,
         T_base_tcp_start,
         config.motion.blend_mm / 1000.0,
         config.grasp.straight_mm / 1000.0,
     )
+    return paying_blends(rounded, T_base_tcp_start, config.motion, path_start_s)
 
 
 def check_steps(
@@ -340,6 +353,7 @@ class _Trial:
     blend: bool
     scene: SceneCheck | None
     q_actual: tuple[float, ...] | None  # the controller's joints (rad) when the arm is checked
+    path_start_s: float  # what a path start costs on this controller (s)
 
     def sequence(self, plan: PickPlan) -> list[Step]:
         """The pick of ``plan`` and, when the cell places, its place; corners blended."""
@@ -347,7 +361,7 @@ class _Trial:
         if self.T_base_tcp_place is not None and self.config.place is not None:
             steps += place_steps(self.T_base_tcp_place, self.config.place, grip=self.grip)
         if self.blend:
-            steps = blended(self.config, steps, self.T_base_tcp_start)
+            steps = blended(self.config, steps, self.T_base_tcp_start, self.path_start_s)
         return steps
 
     def preflight(self, steps: Sequence[Step]) -> list[CheckResult]:
@@ -449,6 +463,7 @@ def choose(
     T_base_tcp_place: Transform | None,
     grip: bool,
     blend: bool = True,
+    path_start_s: float = 0.0,
     standoff_m: float = 0.0,
     on_plan: Callable[[PickPlan], None] | None = None,
 ) -> tuple[Chosen, list[CandidateRefusal]]:
@@ -461,7 +476,8 @@ def choose(
 
     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
     ``grip`` False leaves the gripper out of the steps (a touch test), ``blend`` False keeps
-    every target a stop (``motion.blend_mm`` rounds the corners otherwise). Raises
+    every target a stop (``motion.blend_mm`` rounds the corners otherwise, where they save
+    more than ``path_start_s``, what a path start costs on the controller, s). Raises
     ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
     (every check listed) when there was only one.
     """
@@ -480,6 +496,7 @@ def choose(
         blend,
         scene,
         arm.joint_positions() if scene is not None and scene.arm is not None else None,
+        path_start_s,
     )
     refusals: list[CandidateRefusal] = []
     for index, detection in enumerate(detections):

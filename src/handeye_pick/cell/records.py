@@ -10,10 +10,10 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
-from dataclasses import asdict
+from dataclasses import asdict, replace
 
 from handeye_pick.audit import AuditLog
-from handeye_pick.cell.plan import PickPlan
+from handeye_pick.cell.plan import PickPlan, blended_stretches
 from handeye_pick.config.schema import CellConfig
 from handeye_pick.detection import Detection
 from handeye_pick.errors import RobotFault, Terminated, ending
@@ -134,6 +134,22 @@ def blends_record(steps: Sequence[Step]) -> dict[str, object]:
         if isinstance(step, Move) and step.blend_m > 0.0
     }
     return {"blends_mm": blends} if blends else {}
+
+
+def stretches_record(
+    config: CellConfig,
+    steps: Sequence[Step],
+    T_base_tcp_start: Transform | None,
+    path_start_s: float | None,
+) -> dict[str, object]:
+    """``{"stretches": [...]}``: each stretch where corners were planned, how it is sent and
+    why (``stretch.Stretch.record``); nothing when no corner was planned. The choice is made
+    again from the same targets, start pose and start cost as ``plan.blended`` made it."""
+    if T_base_tcp_start is None or path_start_s is None or config.motion.blend_mm <= 0.0:
+        return {}
+    plain = [replace(step, blend_m=0.0) if isinstance(step, Move) else step for step in steps]
+    _, stretches = blended_stretches(config, plain, T_base_tcp_start, path_start_s)
+    return {"stretches": [s.record() for s in stretches]} if stretches else {}
 
 
 def plan_matrix(T: Transform) -> list[list[float]]:

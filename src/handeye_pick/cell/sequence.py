@@ -18,6 +18,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from handeye_pick.cell.blend import BLEND_SHARE, MIN_BLEND_M
+from handeye_pick.cell.motion_time import trapezoid_s
 from handeye_pick.cell.payload import held_payload
 from handeye_pick.cell.plan import RETREAT
 from handeye_pick.config.schema import CellConfig, Payload
@@ -44,13 +45,6 @@ ramps) before the margin from the config starts counting."""
 
 GRASP_WATCH_PERIOD_S = 0.05
 """How often a carried part is looked at during a move (each look is a gripper round trip)."""
-
-
-def trapezoid_s(distance: float, speed: float, accel: float) -> float:
-    """Duration of a trapezoid (or triangle) velocity profile over ``distance`` (any unit)."""
-    if distance >= speed**2 / accel:
-        return distance / speed + speed / accel
-    return 2.0 * math.sqrt(distance / accel)
 
 
 def move_timeout_s(

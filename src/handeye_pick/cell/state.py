@@ -79,6 +79,12 @@ class CellState:
         ensure_ready(arm.status(), T_flange_tcp, self.config.robot)
         return T_flange_tcp
 
+    def path_start_s(self) -> float:
+        """What starting a blended path costs on the connected controller (s, the arm's running
+        figure); 0 while it has none (nothing measured: corners are kept wherever they save)."""
+        figure = self.link.arm.path_start_s()
+        return 0.0 if figure is None else figure
+
     def next_place_pose(self, place: PlaceConfig) -> Transform:
         """The place pose ``T_base_tcp`` (m) the next place uses (they are used in turn)."""
         return place.T_base_tcp[self.place_index % len(place.T_base_tcp)]

@@ -49,7 +49,7 @@ _WORKSPACE_NUMBERS = {"max_tilt_deg": Number("deg", minimum=0.0, maximum=180.0)}
 def read_motion(top: Fields) -> MotionConfig:
     """``motion``; the grasp move may not be faster than the travel moves, and the stop must
     brake at least as hard as a move accelerates."""
-    motion = top.section("motion", tuple(_MOTION_NUMBERS))
+    motion = top.section("motion", (*_MOTION_NUMBERS, "blend_always"))
     speed = motion.number("speed_mps", _MOTION_NUMBERS)
     grasp_speed = motion.number("grasp_speed_mps", _MOTION_NUMBERS)
     if grasp_speed > speed:
@@ -72,6 +72,7 @@ def read_motion(top: Fields) -> MotionConfig:
         joint_speed_rps=motion.number("joint_speed_rps", _MOTION_NUMBERS),
         joint_accel_rps2=motion.number("joint_accel_rps2", _MOTION_NUMBERS),
         blend_mm=motion.number("blend_mm", _MOTION_NUMBERS),
+        blend_always=motion.boolean("blend_always", default=False),
     )
 
 

@@ -122,6 +122,9 @@ class MotionConfig:
     # The largest radius a corner between two moveL targets is rounded with (mm); 0: the arm
     # stops at every target, as single moveL commands do
     blend_mm: float = 0.0
+    # True: every stretch of corners is sent as one path, even where a path's start costs more
+    # than its corners save (docs/motion.md, "Blend only where it pays"; a comparison's setting)
+    blend_always: bool = False
 
 
 @dataclass(frozen=True)

@@ -159,6 +159,17 @@ class RobotArm(Protocol):
         """Whether the controller finds an inverse-kinematics solution for a TCP target."""
         ...
 
+    def path_start_s(self) -> float | None:
+        """What starting a blended path costs on this controller beyond a single moveL (s): a
+        running figure over the paths sent so far and the measurement of
+        ``measure_path_start``; None before either."""
+        ...
+
+    def measure_path_start(self) -> float:
+        """Measure what starting a program costs on this controller, without moving the arm
+        (the arm must be at rest, no motion running); the new figure (s)."""
+        ...
+
     def move_linear(
         self,
         T_base_tcp: Transform,

@@ -20,7 +20,6 @@ import logging
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from types import TracebackType
 
 import numpy as np
@@ -48,13 +47,16 @@ from handeye_pick.robot.port import (
 )
 from handeye_pick.robot.ur.advice import connect_dashboard, dashboard_lost_error
 from handeye_pick.robot.ur.child import Child
+from handeye_pick.robot.ur.commands import MoveKind, fmt_pose, motion_fraction, single
 from handeye_pick.robot.ur.dashboard import stop_program_until_confirmed
+from handeye_pick.robot.ur.start_cost import PathStartCost
 from handeye_pick.robot.ur.worker import Sample
 
 log = logging.getLogger(__name__)
 
-POLL_PERIOD_S = 0.004
-"""How often a running move is watched: two RTDE cycles at 500 Hz."""
+POLL_PERIOD_S = 0.002
+"""How often a running move is watched: every RTDE cycle at 500 Hz (a move's end is seen within
+a cycle or two, not four)."""
 REACHED_TOLERANCE_M = 0.001
 REACHED_TOLERANCE_RAD = math.radians(0.5)
 """A finished moveL must end this close to its target; a UR arm repeats to +-0.03 mm."""
@@ -70,6 +72,9 @@ STOP_TIMEOUT_S = 5.0
 does not leave the arm moving: while the ur_rtde process waits for the stopL answer it feeds no
 watchdog, so the controller stops the program after ``watchdog_s`` anyway. (2 s was too short
 for a simulated controller descheduled on a busy machine, which then answered late.)"""
+RESTART_TIMEOUT_S = 6.0
+"""The control script's stop, upload and start, measured at connect, must answer within this
+(the child gives the controller 5 s to run it)."""
 STALE_LINK_S = 0.5
 """No new RTDE sample for this long during a move means the link is gone."""
 OUTPUT_CONFIRM_TIMEOUT_S = 0.5
@@ -77,30 +82,6 @@ OUTPUT_CONFIRM_TIMEOUT_S = 0.5
 output value in its RTDE data within this time (250 cycles at 500 Hz)."""
 TOOL_OUTPUT_FIRST_BIT = 16
 """Tool digital outputs (inputs) start at bit 16 of ``actual_digital_output_bits`` (``_input_``)."""
-
-
-@dataclass(frozen=True)
-class _MoveKind:
-    """One async motion command as the child sends it: moveL (pose, m/s, m/s^2), moveJ
-    (joints, rad/s, rad/s^2) or a moveL path (waypoint rows, see ``move_path``)."""
-
-    name: str
-    operation: str
-    args: tuple[object, ...]  # the child operation's arguments
-    description: str  # the target and its speeds, for the log and a refusal
-
-
-def _single(
-    name: str, operation: str, target: list[float], speed: float, accel: float
-) -> _MoveKind:
-    """A single moveL or moveJ to ``target`` at ``speed`` and ``accel``."""
-    return _MoveKind(
-        name, operation, (target, speed, accel), f"{_fmt_pose(target)} v={speed:.3f} a={accel:.3f}"
-    )
-
-
-def _fmt_pose(pose: list[float]) -> str:
-    return "[" + ", ".join(f"{v:.4f}" for v in pose) + "]"
 
 
 def _state_text(sample: Sample) -> str:
@@ -118,19 +99,6 @@ def _at_rest_on(sample: Sample, T_target: Transform) -> bool:
     off_rad = rotation_angle_between(T_now[:3, :3], T_target[:3, :3])
     still = max(abs(v) for v in sample.qd) < STEADY_JOINT_SPEED_RPS
     return off_m <= REACHED_TOLERANCE_M and off_rad <= REACHED_TOLERANCE_RAD and still
-
-
-def motion_fraction(T_start: Transform, T_now: Transform, T_target: Transform) -> float:
-    """Fraction of a linear move done, 0..1, from the distance left (angle for pure rotations)."""
-    total = float(np.linalg.norm(T_target[:3, 3] - T_start[:3, 3]))
-    if total > 1e-3:
-        left = float(np.linalg.norm(T_target[:3, 3] - T_now[:3, 3]))
-    else:
-        total = rotation_angle_between(T_start[:3, :3], T_target[:3, :3])
-        left = rotation_angle_between(T_now[:3, :3], T_target[:3, :3])
-        if total < 1e-6:
-            return 1.0
-    return min(1.0, max(0.0, 1.0 - left / total))
 
 
 class URRtdeArm:
@@ -163,6 +131,7 @@ class URRtdeArm:
     ) -> None:
         self.host = host
         self._on_sample = on_sample
+        self._start_cost = PathStartCost()
         self._stop_decel_mps2 = stop_decel_mps2
         self._dashboard, self._version = connect_dashboard(host, call_timeout_s, model)
         self.controller_version = (
@@ -244,6 +213,20 @@ class URRtdeArm:
     def has_ik_solution(self, T_base_tcp: Transform) -> bool:
         return bool(self._child.call("has_ik_solution", ur_pose_list(T_base_tcp)))
 
+    def path_start_s(self) -> float | None:
+        """What a path's start costs beyond a single move (s): robot/ur/start_cost.py."""
+        return self._start_cost.seconds
+
+    def measure_path_start(self) -> float:
+        """The control script stopped, uploaded again and waited for, as a path's start does,
+        without motion; the new figure (s). The arm must be at rest."""
+        seconds = self._child.call("restart_script", timeout_s=RESTART_TIMEOUT_S)
+        if not isinstance(seconds, float):
+            raise RobotConnectionError(f"restart on {self.host}: unexpected reply {seconds!r}")
+        self._start_cost.restarted(seconds)
+        log.info("a program start on %s takes %.3f s", self.host, seconds)
+        return seconds
+
     def move_linear(
         self,
         T_base_tcp: Transform,
@@ -268,7 +251,7 @@ class URRtdeArm:
             return motion_fraction(T_start, T_now, T_base_tcp)
 
         return self._move(
-            _single("moveL", "move_l_async", ur_pose_list(T_base_tcp), speed_mps, accel_mps2),
+            single("moveL", "move_l_async", ur_pose_list(T_base_tcp), speed_mps, accel_mps2),
             timeout_s,
             on_progress,
             fraction,
@@ -301,11 +284,11 @@ class URRtdeArm:
             return min(index + within, len(targets) - 1e-6) / len(targets)
 
         described = " -> ".join(
-            f"{_fmt_pose(row[:6])} v={row[6]:.3f} a={row[7]:.3f} r={row[8] * 1000:.1f} mm"
+            f"{fmt_pose(row[:6])} v={row[6]:.3f} a={row[7]:.3f} r={row[8] * 1000:.1f} mm"
             for row in rows
         )
         return self._move(
-            _MoveKind("moveL path", "move_l_path_async", (rows,), described),
+            MoveKind("moveL path", "move_l_path_async", (rows,), described),
             timeout_s,
             on_progress,
             fraction,
@@ -338,7 +321,7 @@ class URRtdeArm:
             return min(1.0, max(0.0, 1.0 - left / total))
 
         return self._move(
-            _single("moveJ", "move_j_async", target, speed_rps, accel_rps2),
+            single("moveJ", "move_j_async", target, speed_rps, accel_rps2),
             timeout_s,
             on_progress,
             fraction,
@@ -376,7 +359,7 @@ class URRtdeArm:
 
     def _move(
         self,
-        kind: _MoveKind,
+        kind: MoveKind,
         timeout_s: float,
         on_progress: ProgressCallback | None,
         fraction: Callable[[Sample, Sample], float],
@@ -390,9 +373,15 @@ class URRtdeArm:
         try:
             self._check_motion_sample(start, kind.name)  # never start on a broken link or stop
             log.debug("%s %s", kind.name, kind.description)
+            sent = time.monotonic()
             if not self._child.call(kind.operation, *kind.args):
                 after = self._sample("sample")
                 raise self._fault(f"{kind.name} to {kind.description} was refused", after)
+            sending_s = time.monotonic() - sent
+            if kind.operation == "move_l_path_async":
+                self._start_cost.path_sent(sending_s)
+            else:
+                self._start_cost.single_sent(sending_s)
             self._watch_motion(kind.name, start, timeout_s, on_progress, fraction, ended_unseen)
             reached = self._sample("fresh_sample")
             self._check_motion_sample(reached, kind.name)
@@ -458,7 +447,7 @@ class URRtdeArm:
         cog = [float(v) for v in cog_flange_m]
         if not self._child.call("set_payload", float(mass_kg), cog):
             raise self._fault(
-                f"setPayload({mass_kg:g} kg, CoG {_fmt_pose(cog)} m) was refused",
+                f"setPayload({mass_kg:g} kg, CoG {fmt_pose(cog)} m) was refused",
                 self._sample("sample"),
             )
 

@@ -40,6 +40,9 @@ FRESH_SAMPLE_TIMEOUT_S = 0.5
 """How long to wait for an RTDE sample newer than the request (250 cycles at 500 Hz)."""
 FIRST_SAMPLE_TIMEOUT_S = 1.0
 """How long a new receive interface may go without data before the connection fails."""
+PROGRAM_START_TIMEOUT_S = 5.0
+"""The longest the control script uploaded again may take to run: a CB3 takes about 2 ms a line,
+2.4 s for ur_rtde's script (docs/ur-rtde.md, "Blended paths")."""
 WATCHDOG_KICKS_PER_WINDOW = 8
 """ur_rtde's controller-side watchdog (docs/field-experience.md, "A supervisor's SIGTERM, a crash,
 a power cut"): the control script stops the program, and
@@ -245,6 +248,25 @@ class _Session:
         self._arm_watchdog()
         return started
 
+    def restart_script(self) -> float:
+        """Stop the control script, upload it again and wait until the controller runs it
+        (ur_rtde's reuploadScript returns before that); the seconds it took. As after a path,
+        the new script has no watchdog until it is set again, which this does."""
+        started = time.monotonic()
+        if not self._control.reuploadScript():
+            raise RuntimeError("the controller did not take the control script again")
+        deadline = started + PROGRAM_START_TIMEOUT_S
+        while not self._control.isProgramRunning():
+            if time.monotonic() > deadline:
+                raise RuntimeError(
+                    f"the control script uploaded again did not run within "
+                    f"{PROGRAM_START_TIMEOUT_S} s"
+                )
+            time.sleep(0.001)
+        seconds = time.monotonic() - started
+        self._arm_watchdog()
+        return seconds
+
     def stop_l(self, decel_mps2: float) -> None:
         self._control.stopL(decel_mps2, False)
 
@@ -316,6 +338,7 @@ def serve(conn: Connection, host: str, with_io: bool, watchdog_s: float) -> None
         "has_ik_solution": session.has_ik_solution,
         "move_l_async": session.move_l_async,
         "move_l_path_async": session.move_l_path_async,
+        "restart_script": session.restart_script,
         "stop_l": session.stop_l,
         "is_joints_within_safety_limits": session.is_joints_within_safety_limits,
         "move_j_async": session.move_j_async,
