@@ -8,25 +8,31 @@ outputs (``ready``, ``executing``, ``held``, ``halted``, ``heartbeat``) through 
 interface, each only when it changes; the heartbeat toggles every second. The session's pipe
 to ur_rtde serves one call at a time, so this thread never interleaves with a move's.
 
-While the robot session is closed (a lost link) nothing can be read or written: the heartbeat
-stops, which is how a PLC sees it. Any error here is logged once and retried; it never reaches
-the cell.
+While the robot session is closed (a lost link, or a resume the controller refused) no output
+can be written: the heartbeat stops, which is how a PLC sees it; the inputs are then read from
+outside, one RTDE package every ``OUTSIDE_PERIOD_S`` (``robot.ur.readout``: no program, nothing
+written), so a wired resume still reaches the cell. Any error here is logged once and retried;
+it never reaches the cell.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
+import time
 from typing import Protocol, runtime_checkable
 
 from handeye_pick.config.line import LineIoConfig
 from handeye_pick.errors import HandEyePickError
 from handeye_pick.line.state import ItemState, Line, LineView
+from handeye_pick.robot.ur.readout import read_digital_inputs
 
 log = logging.getLogger(__name__)
 
 PERIOD_S = 0.05
 """How often the inputs are read and the outputs brought up to date (20 Hz)."""
+OUTSIDE_PERIOD_S = 0.5
+"""How often the inputs are read from outside while the session has no link."""
 
 
 @runtime_checkable
@@ -63,6 +69,7 @@ class WiredHandshake:
         self._stopping = threading.Event()
         self._thread = threading.Thread(target=self._run, name="line io", daemon=True)
         self._last_problem: str | None = None
+        self._next_outside = 0.0  # when the inputs are next read from outside (monotonic s)
 
     def start(self) -> WiredHandshake:
         self._thread.start()
@@ -84,6 +91,8 @@ class WiredHandshake:
         cell = self.line.cell
         if not cell.connected:
             self._arm = None
+            if self.io.inputs and self._outside_due():
+                self._inputs(read_digital_inputs(cell.config.robot.host))
             return
         arm = cell.arm
         if not isinstance(arm, LineIoArm):
@@ -98,6 +107,13 @@ class WiredHandshake:
                 arm.write_standard_output(bit, value)
                 self._written[bit] = value
         self._last_problem = None
+
+    def _outside_due(self) -> bool:
+        now = time.monotonic()
+        if now < self._next_outside:
+            return False
+        self._next_outside = now + OUTSIDE_PERIOD_S
+        return True
 
     def _inputs(self, bits: int) -> None:
         for name, bit in self.io.inputs.items():
