@@ -9,9 +9,9 @@ where the cell config is config/loop.yaml with the wired handshake added (``line
 stop on DI4, stop on DI5, resume on DI6; ready, executing, held, halted and heartbeat on DO4,
 DO5, DO6, DO7 and DO3). Three actors then play the line:
 
-- the vision program (a pipe to ``run``) captures, picks a part at a known place on the table
-  and places it, for ``--picks`` cycles; a request answered ``held`` is asked again once the
-  cell no longer holds;
+- the vision program (a pipe to ``run``) waits for the conveyor to bring a part (1.5 s),
+  captures, picks it at a known place on the table and places it, for ``--picks`` cycles; a
+  request answered ``held`` is asked again once the cell no longer holds;
 - the panel, an OPC UA client, prints the cell's state and counters once a second;
 - the PLC, through the simulator's admin port (what its wires would do): after three parts
   have arrived it raises DI4 (cycle stop), waits for the cell's held output, keeps the cell
@@ -52,6 +52,7 @@ PORT = 4841
 PART_BASE_M = np.array([-0.52, -0.10, 0.05])  # where each part lies on the table (base frame)
 CYCLE_STOP, HELD_OUTPUT = 4, 6  # the PLC's wires: DI4 in, DO6 out
 HOLD_AFTER, HOLD_S = 3, 2.0
+FEED_S = 1.5  # the conveyor brings the next part this long after a pick
 LINE_IO = {
     "io": {
         "inputs": {"cycle_stop": CYCLE_STOP, "stop": 5, "resume": 6},
@@ -106,6 +107,7 @@ class Vision:
 
     def cycle(self, n: int) -> dict[str, Any]:
         self.cycle_number = n
+        time.sleep(FEED_S)
         captured = self.ask({"id": f"c{n}", "op": "capture"})
         T_base_cam = ur_pose_to_matrix(captured["flange_pose_ur"]) @ self.T_flange_cam
         point_mm = transform_point(invert(T_base_cam), PART_BASE_M) * 1000.0

@@ -52,7 +52,7 @@ from handeye_pick.line.users import User
 log = logging.getLogger(__name__)
 
 NAMESPACE = "urn:handeye-pick:line"
-PUBLISH_S = 0.5
+PUBLISH_S = 0.25
 """How often the variables are brought up to date from the line state."""
 MAX_SESSIONS = 8
 MAX_SUBSCRIPTIONS = 32
