@@ -453,21 +453,6 @@ class URRtdeArm:
         bit = TOOL_OUTPUT_FIRST_BIT + index if bank is OutputBank.TOOL else index
         return bool(self._sample("sample").digital_input_bits >> bit & 1)
 
-    def digital_input_bits(self) -> int:
-        """``actual_digital_input_bits`` of the latest RTDE sample (standard inputs bits 0-7,
-        configurable 8-15, tool 16-17): the child's cached state, no controller round trip.
-        For the line's handshake (``handeye_pick.line.io``); tells no sample listener."""
-        fields = self._child.call("sample")
-        if not isinstance(fields, dict):
-            raise RobotConnectionError(f"sample on {self.host}: unexpected reply {fields!r}")
-        return int(fields["digital_input_bits"])
-
-    def write_standard_output(self, index: int, value: bool) -> None:
-        """``setStandardDigitalOut(index, value)`` without waiting to see it in the RTDE data
-        (the line's status outputs, ``handeye_pick.line.io``); RobotFault when refused."""
-        if not self._child.call("set_standard_digital_out", index, value):
-            raise RobotFault(f"cell {self.host}: set standard digital output {index} refused")
-
     def set_payload(self, mass_kg: float, cog_flange_m: Sequence[float]) -> None:
         """``setPayload(mass, cog)`` (kg, m in the flange frame); RobotFault when refused."""
         cog = [float(v) for v in cog_flange_m]
