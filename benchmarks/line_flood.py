@@ -197,6 +197,9 @@ def main() -> None:
     parser.add_argument("--stop-file", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.flood:
+        import logging
+
+        logging.basicConfig(level=logging.CRITICAL)  # a dropped session's noise is expected
         asyncio.run(flood(args.flood, args.stop_file))
         return
     print(machine())

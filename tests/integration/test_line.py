@@ -107,13 +107,16 @@ def reply_to(run: Any, rid: str) -> dict[str, Any]:
             return line
 
 
-def test_a_cycle_stop_over_opcua_mid_pick_lets_it_place_and_holds_the_next(
+def test_a_cycle_stop_over_opcua_mid_pick_lets_it_place_and_holds_the_next_after_garbage(
     sim_controller: SimFactory, tmp_path: Path
 ) -> None:
     ctl = sim_controller(tcp_offset=TCP_OFFSET, speed_factor=2.0)
     port = free_port(ctl.host)
     url = f"opc.tcp://{ctl.host}:{port}"
     with loop(loop_config(tmp_path, ctl.host), "--opcua", f"{ctl.host}:{port}") as run:
+        for garbage in (b"\x00" * 64, b"HELF" + b"\xff" * 4096, b"not OPC UA at all\r\n"):
+            with socket.create_connection((ctl.host, port)) as client:  # costs the cell nothing
+                client.sendall(garbage)
         run.send(json.dumps(pick_request("p1", run)))
         step = run.reply()
         assert (step["id"], step["event"]) == ("p1", "step"), step

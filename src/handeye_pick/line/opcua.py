@@ -5,8 +5,8 @@ command starts without it. The server never touches the robot: it reads the line
 (``line.state.Line``) every ``PUBLISH_S`` into its variables and turns method calls into line
 commands, run on a worker thread so a slow one (a resume waits for the cell) never blocks
 other clients. It is bounded (``MAX_SESSIONS``, ``MAX_SUBSCRIPTIONS``, ``MAX_QUEUE``,
-``MAX_PENDING_MESSAGES``); whatever ends it (a defect, a client that breaks it) ends only the
-server, with one warning line, never the cell.
+``MAX_PENDING_MESSAGES``, ``MIN_PUBLISHING_MS``); whatever ends it (a defect, a client that
+breaks it) ends only the server, with one warning line, never the cell.
 
 asyncua ships no companion nodesets (no DI, no Machinery in its package), so the machine's
 nodes are built here after OPC 40001-1: ``Machines/<cell>`` with ``Identification``,
@@ -58,6 +58,10 @@ MAX_SESSIONS = 8
 MAX_SUBSCRIPTIONS = 32
 MAX_QUEUE = 100
 MAX_PENDING_MESSAGES = 50
+MIN_PUBLISHING_MS = 250.0
+"""The fastest publishing interval a subscription gets (a faster one is revised to this): the
+values change at most every ``PUBLISH_S``, and a client asking for 10 ms would only make the
+server wake 100 times a second for nothing."""
 START_TIMEOUT_S = 30.0
 _CALLER: contextvars.ContextVar[str] = contextvars.ContextVar("caller", default="anonymous")
 
@@ -133,7 +137,10 @@ class LineServer:
         return f"opc.tcp://{host}:{self.bound_port}"
 
     def start(self) -> LineServer:
-        """Start and wait until it listens; InputError (exit 2) when it cannot."""
+        """Start and wait until it listens; InputError (exit 2) when it cannot. asyncua's own
+        log is kept to errors: a client refused at a bound would otherwise write a line each
+        time it tries."""
+        logging.getLogger("asyncua").setLevel(logging.ERROR)
         self._thread.start()
         if not self._ready.wait(START_TIMEOUT_S):
             raise InputError(f"run --opcua: the server did not start within {START_TIMEOUT_S} s")
@@ -180,6 +187,7 @@ class LineServer:
         iserver.max_monitored_item_queue_size = MAX_QUEUE
         iserver.max_pending_messages_per_connection = MAX_PENDING_MESSAGES
         iserver.max_unacked_messages_per_subscription = MAX_QUEUE
+        _slow_publishing(iserver.subscription_service)
         host = f"[{self.host}]" if ":" in self.host else self.host
         server.set_endpoint(f"opc.tcp://{host}:{self.port}/")
         server.set_server_name(f"handeye-pick {self.identity.get('cell', '')}".strip())
@@ -276,6 +284,19 @@ _COUNTER_VARIABLES: tuple[tuple[str, object, ua.VariantType], ...] = (
     ("Cycles", 0, _U32), ("CycleTimeLast", 0.0, _DBL), ("CycleTimeMedian", 0.0, _DBL),
     ("PicksPerHour", 0.0, _DBL), ("HaltedSeconds", 0.0, _DBL), ("HeldSeconds", 0.0, _DBL),
 )
+
+
+def _slow_publishing(service: Any) -> None:
+    """Revise every new subscription's publishing interval up to ``MIN_PUBLISHING_MS`` (asyncua
+    takes the client's as asked)."""
+    create = service.create_subscription
+
+    async def bounded(params: Any, *args: Any, **kwargs: Any) -> Any:
+        interval = params.RequestedPublishingInterval
+        params.RequestedPublishingInterval = max(float(interval or 0.0), MIN_PUBLISHING_MS)
+        return await create(params, *args, **kwargs)
+
+    service.create_subscription = bounded
 
 
 def _values(line: Line) -> dict[str, tuple[object, ua.VariantType]]:
