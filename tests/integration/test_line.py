@@ -114,6 +114,7 @@ def test_a_cycle_stop_over_opcua_mid_pick_lets_it_place_and_holds_the_next_after
     port = free_port(ctl.host)
     url = f"opc.tcp://{ctl.host}:{port}"
     with loop(loop_config(tmp_path, ctl.host), "--opcua", f"{ctl.host}:{port}") as run:
+        assert run.ask({"id": "up", "op": "status"})["ok"] is True  # run (and OPC UA) is up
         for garbage in (b"\x00" * 64, b"HELF" + b"\xff" * 4096, b"not OPC UA at all\r\n"):
             with socket.create_connection((ctl.host, port)) as client:  # costs the cell nothing
                 client.sendall(garbage)
