@@ -181,6 +181,8 @@ def test_the_wired_plc_stops_mid_move_and_resumes_only_once_the_controller_is_re
         code, text = opcua(url, "read LastErrorCode"), opcua(url, "read LastErrorText")
         assert last
         assert run.ask({"id": "q", "op": "quit"})["status"] == "bye"
+        assert run.close() == 0
+    assert ctl.snapshot().standard_digital_out & 0b11111000 == 0  # every line output off
     report = shift_report(tmp_path / "picks.jsonl")
     assert counters == {
         "Placed": report.statuses["placed"],

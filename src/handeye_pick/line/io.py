@@ -8,11 +8,11 @@ outputs (``ready``, ``executing``, ``held``, ``halted``, ``heartbeat``) through 
 interface, each only when it changes; the heartbeat toggles every second. The session's pipe
 to ur_rtde serves one call at a time, so this thread never interleaves with a move's.
 
-While the robot session is closed (a lost link, or a resume the controller refused) no output
-can be written: the heartbeat stops, which is how a PLC sees it; the inputs are then read from
-outside, one RTDE package every ``OUTSIDE_PERIOD_S`` (``robot.ur.readout``: no program, nothing
-written), so a wired resume still reaches the cell. Any error here is logged once and retried;
-it never reaches the cell.
+When ``run`` ends, every output is switched off. While the robot session is closed (a lost
+link, or a resume the controller refused) no output can be written: the heartbeat stops, which
+is how a PLC sees it; the inputs are then read from outside, one RTDE package every
+``OUTSIDE_PERIOD_S`` (``robot.ur.readout``: no program, nothing written), so a wired resume
+still reaches the cell. Any error here is logged once and retried; it never reaches the cell.
 """
 
 from __future__ import annotations
@@ -76,8 +76,18 @@ class WiredHandshake:
         return self
 
     def close(self) -> None:
+        """Stop looking and switch every output off (before the session closes), so no PLC
+        sees ``ready`` from a cell that is gone."""
         self._stopping.set()
         self._thread.join(timeout=2.0)
+        cell = self.line.cell
+        try:
+            arm = cell.arm if cell.connected else None
+            if isinstance(arm, LineIoArm):
+                for bit in self.io.outputs.values():
+                    arm.write_standard_output(bit, False)
+        except (HandEyePickError, OSError, ValueError) as exc:
+            log.warning("line io: outputs left as they were at the end (%s)", exc)
 
     def _run(self) -> None:
         while not self._stopping.wait(PERIOD_S):
