@@ -231,9 +231,8 @@ class Runner:
         return self.line.command(request.op, f"request {request.id}")
 
     def _line_fields(self) -> dict[str, object]:
-        if self.line is None:
-            return {"held": False}
-        return self.line.status_fields()
+        """The line's fields of a ``status`` reply (none without a line state)."""
+        return self.line.status_fields() if self.line is not None else {}
 
     def _parse(self, line: bytes | str) -> Request:
         data = _parse_json(line)
