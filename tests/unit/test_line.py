@@ -156,3 +156,28 @@ def test_run_help_loads_no_opcua() -> None:
     result = subprocess.run([sys.executable, "-c", probe], cwd=ROOT, capture_output=True,
                             text=True, timeout=120, check=False)
     assert result.stderr.strip().splitlines()[-1] == "False", result.stderr
+
+
+class _BrokenLine:
+    """A line state whose reading fails: what a defect behind the server would look like."""
+
+    cell = None
+    cycle_stop = release = stop = resume = None
+
+    def view(self) -> LineView:
+        raise RuntimeError("a defect behind the server")
+
+
+def test_a_crash_of_the_opcua_server_ends_only_the_server_with_one_warning(
+    loopback_host: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    from handeye_pick.line.opcua import LineServer
+
+    server = LineServer(_BrokenLine(), loopback_host, 0, None, None,  # type: ignore[arg-type]
+                        {"cell": "test"}).start()
+    server._thread.join(timeout=30)
+    assert not server._thread.is_alive()
+    warnings = [r.getMessage() for r in caplog.records if r.name == "handeye_pick.line.opcua"]
+    assert warnings == ["OPC UA server stopped (RuntimeError: a defect behind the server); the "
+                        "cell goes on without it"]
+    server.close()  # safe after the crash
