@@ -260,3 +260,32 @@ def test_a_remote_opcua_address_needs_allow_remote_and_users(
     assert result.returncode == 2, result.stderr
     assert "--allow-remote and --opcua-users FILE" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1, result.stderr
+
+
+def test_a_resume_over_opcua_runs_while_run_listens_with_no_client(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    port, listen = free_port(ctl.host), free_port(ctl.host)
+    url = f"opc.tcp://{ctl.host}:{port}"
+    extra = ("--opcua", f"{ctl.host}:{port}", "--listen", f"{ctl.host}:{listen}")
+    with loop(loop_config(tmp_path, ctl.host), *extra) as run:
+        state = wait_for("the server", lambda: _state_or_none(url))
+        assert state == "NotExecuting"
+        assert opcua(url, "call Stop")[0].is_good()
+        assert wait_for("halted", lambda: _state_or_none(url) == "OutOfService")
+        status, text = opcua(url, "call Resume")  # taken by run's thread between clients
+        assert status.is_good(), text
+        assert wait_for("ready", lambda: _state_or_none(url) == "NotExecuting")
+        run.process.terminate()
+        run.process.wait(timeout=30)
+    commands = [(r["command"], r["ok"]) for r in audit_records(tmp_path) if r["event"] == "line"]
+    assert commands == [("stop", True), ("resume", True)]
+
+
+def _state_or_none(url: str) -> str | None:
+    try:
+        state: str = opcua(url, "read State")
+    except (OSError, asyncio.TimeoutError):
+        return None
+    return state
