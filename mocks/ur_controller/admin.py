@@ -5,7 +5,9 @@ address (the controller never opens it on any other address). Requests:
 `{"op": "inject", "spec": "protective-stop"}`, `{"op": "snapshot"}`, `{"op": "commands"}`,
 `{"op": "motions"}`, `{"op": "dashboard"}` (every dashboard connection and its requests),
 `{"op": "set_remote_control", "enabled": false}`,
-`{"op": "set_part", "width_mm": 40.0}` (null: no part). Replies:
+`{"op": "set_part", "width_mm": 40.0}` (null: no part),
+`{"op": "set_inputs", "inputs": {"4": true}}` (standard digital inputs 0-7, as a PLC drives
+them; the outputs it reads are the snapshot's `standard_digital_out`). Replies:
 `{"ok": true, "result": ...}` or `{"ok": false, "error": "one line"}`. SimulatedController sends
 the same requests on the child's stdin.
 """
@@ -50,6 +52,9 @@ class AdminBackend(Protocol):
     def set_part(self, width_mm: float | None) -> None:
         """ValueError for a width outside 0..85 mm."""
 
+    def set_inputs(self, inputs: dict[int, bool]) -> None:
+        """ValueError for an input outside 0-7."""
+
 
 def answer(ctl: AdminBackend, request: Any) -> dict[str, Any]:
     """The reply to one decoded request: ok with a result, or not ok with a one-line error."""
@@ -80,6 +85,12 @@ def _result(ctl: AdminBackend, request: Any) -> Any:
     if op == "set_part":
         width = request["width_mm"]
         ctl.set_part(None if width is None else float(width))
+        return None
+    if op == "set_inputs":
+        given = request["inputs"]
+        if not isinstance(given, dict):
+            raise ValueError('set_inputs: expected "inputs": {"BIT": true|false}')
+        ctl.set_inputs({int(bit): bool(value) for bit, value in given.items()})
         return None
     raise ValueError(f"unknown request op {op!r}")
 

@@ -119,6 +119,7 @@ class Controller:
         self._stall_until_s = 0.0
         self._slow_s = 0.0
         self._standard_do = 0
+        self._plc_inputs = 0  # standard digital inputs a PLC drives (admin set_inputs)
         self._configurable_do = 0
         self._tool_do = 0
         self._analog_out = [0.0, 0.0]
@@ -238,6 +239,15 @@ class Controller:
             raise ValueError(f"the {self.profile.name} profile has no remote control mode")
         with self.lock:
             self._remote_control = enabled
+
+    def set_inputs(self, inputs: Mapping[int, bool]) -> None:
+        """Drive standard digital inputs 0-7 as a PLC wired to the control box would."""
+        for bit, value in inputs.items():
+            if not 0 <= bit <= 7:
+                raise ValueError(f"standard digital input {bit}: expected 0-7")
+            with self.lock:
+                self._plc_inputs = (self._plc_inputs | 1 << bit if value
+                                    else self._plc_inputs & ~(1 << bit))
 
     def snapshot(self) -> ControllerSnapshot:
         with self.lock:
@@ -581,14 +591,15 @@ class Controller:
             self._apply(fault)
 
     def _digital_input_bits(self) -> int:
-        """actual_digital_input_bits: nothing is wired but the feedback input, if configured,
-        which reads true while its gripper output is on and the scripted part is present."""
+        """actual_digital_input_bits: the inputs a PLC drives (set_inputs), and the feedback
+        input, if configured, which reads true while its gripper output is on and the scripted
+        part is present."""
         if self._feedback is None:
-            return 0
+            return self._plc_inputs
         output_bit, input_bit = self._feedback
         outputs = self._standard_do | self._configurable_do << 8 | self._tool_do << 16
         sensed = bool(outputs >> output_bit & 1) and self.gripper.part_width_mm is not None
-        return int(sensed) << input_bit
+        return self._plc_inputs | int(sensed) << input_bit
 
     def _runtime_state(self) -> int:
         if self._script is None or not self._script.running:

@@ -135,6 +135,11 @@ class SimulatedController:
         A part slipping out at a given moment: inject `gripper-drop@move:K:FRACTION`."""
         self._request({"op": "set_part", "width_mm": width_mm})
 
+    def set_inputs(self, inputs: dict[int, bool]) -> None:
+        """Drive standard digital inputs 0-7 as a PLC wired to the control box would; what the
+        cell shows the PLC is ``snapshot().standard_digital_out``."""
+        self._request({"op": "set_inputs", "inputs": {str(b): v for b, v in inputs.items()}})
+
     def set_remote_control(self, enabled: bool) -> None:
         """Switch remote/local control as on the pendant (e-series profile only)."""
         self._request({"op": "set_remote_control", "enabled": enabled})

@@ -39,6 +39,7 @@ class Status(str, Enum):
     REFUSED = "refused"
     NO_CANDIDATE = "no-candidate"
     HALTED = "halted"
+    HELD = "held"  # run: a cycle stop holds the cell; the request was not run (docs/line.md)
     DROPPED = "dropped"
     ABORTED = "aborted"  # refused after the arm had moved: it stands where it stopped
     FAULT = "fault"

@@ -13,7 +13,7 @@ Requests (camera frame in mm for detections, robot poses as UR vectors in m and 
      "place": true, "dry_run": false}                        place, dry_run optional
     {"id": "3", "op": "place"}    {"id": "4", "op": "move", "pose": "home"}
     {"id": "5", "op": "status"}   {"id": "6", "op": "resume"}   {"id": "7", "op": "quit"}
-    {"id": "8", "op": "stop"}
+    {"id": "8", "op": "stop"}     {"id": "9", "op": "cycle-stop"}   {"id": "10", "op": "release"}
 
 ``capture`` and ``pick`` may name the vision program's point cloud of the capture,
 ``"cloud": {"file": "PATH.npy"}`` (camera frame, mm), for a recording (``run --record``).
@@ -28,6 +28,10 @@ once, from the thread that reads requests; the others wait their turn. A motion 
 ``{"id": "4", "event": "step", "step": "retreat"}`` as each step starts, and
 ``{"id": "4", "event": "view-clear"}`` once the arm has passed ``capture.view_clear_at`` (a
 fixed camera may capture again).
+
+``cycle-stop`` (hold after the running request) and ``release`` are answered at once too; while
+the cell is held, motion requests are answered ``held`` and never run (the line state,
+``handeye_pick.line``, is given as ``Runner.line``).
 """
 
 from __future__ import annotations
@@ -39,7 +43,7 @@ import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Protocol
 
 from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.pick import PickResult
@@ -75,9 +79,32 @@ _KEYS: dict[str, tuple[str, ...]] = {  # "events": true asks for the request's e
     "resume": (),
     "quit": (),
     "stop": (),
+    "cycle-stop": (),
+    "release": (),
 }
 _MOTION_OPS = frozenset({"capture", "pick", "place", "move", "resume"})
+_HELD_OPS = frozenset({"capture", "pick", "place", "move"})  # not run while the cell is held
+_LINE_OPS = frozenset({"cycle-stop", "release"})
 _COMMON_KEYS = ("id", "op", "token")
+
+
+class LineDoor(Protocol):
+    """The line state as the runner sees it (``handeye_pick.line.state.Line``)."""
+
+    def held(self) -> str | None:
+        """Who gave the cycle stop in force, or None."""
+
+    def command(self, name: str, by: str) -> dict[str, object]:
+        """``cycle-stop`` or ``release`` given by ``by``: the reply's fields."""
+
+    def noted_stop(self, by: str) -> None:
+        """A ``stop`` request was given to the cell: audit who gave it."""
+
+    def status_fields(self) -> dict[str, object]:
+        """What a ``status`` reply adds (``held``, ``held_by``, ``line_state``)."""
+
+    def run_pending(self) -> None:
+        """Run, on the calling thread (the cell's), what other doors handed over."""
 
 
 class BadRequest(InputError):
@@ -110,7 +137,20 @@ class Runner:
         self._busy: dict[str, object] | None = None  # the request running: id, op, step
         self._events = False  # the running request asked for its event lines
         self._view_clear_sent = False
+        self.line: LineDoor | None = None  # the line state (run), or None
         cell.watch_steps(self._on_step)
+
+    @property
+    def running(self) -> dict[str, object] | None:
+        """A copy of the request running (id, op, step), or None; safe from any thread."""
+        busy = self._busy
+        return dict(busy) if busy is not None else None
+
+    def idle(self) -> None:
+        """The cell's thread between requests: run what the line's other doors handed over
+        (a resume from the OPC UA server or a wired input)."""
+        if self.line is not None:
+            self.line.run_pending()
 
     def handle(self, line: bytes | str) -> dict[str, object]:
         """The reply to one request line (without its newline)."""
@@ -118,6 +158,9 @@ class Runner:
             request = self._parse(line)
         except BadRequest as exc:
             return bad_request_reply(line, exc)
+        held = self._held_reply(request)
+        if held is not None:
+            return held
         if request.op in _MOTION_OPS:
             self._busy = {"id": request.id, "op": request.op}
             self._events, self._view_clear_sent = request.events, False
@@ -146,11 +189,15 @@ class Runner:
             request = self._parse(line)
         except BadRequest as exc:
             return bad_request_reply(line, exc)
-        busy = dict(self._busy) if self._busy is not None else None
+        busy = self.running
         if request.op == "stop":
             running = f" while request {busy['id']} ran {busy['op']}" if busy else ""
             self.cell.request_stop(f"stopped by request {request.id}{running}")
+            if self.line is not None:
+                self.line.noted_stop(f"request {request.id}")
             return {"id": request.id, "ok": True, "status": Status.STOPPED, "request": busy}
+        if request.op in _LINE_OPS:
+            return {"id": request.id, **self._line_command(request)}
         if request.op == "status" and (busy is not None or waiting):
             return {
                 "id": request.id,
@@ -159,8 +206,33 @@ class Runner:
                 "request": busy,
                 "halted": self.cell.halted is not None,
                 "halted_reason": self.cell.halted,
+                **self._line_fields(),
             }
         return None
+
+    def _held_reply(self, request: Request) -> dict[str, object] | None:
+        """The reply to a motion request while a cycle stop holds the cell: not run."""
+        by = self.line.held() if self.line is not None and request.op in _HELD_OPS else None
+        if by is None:
+            return None
+        return {
+            "id": request.id,
+            "ok": False,
+            "status": Status.HELD,
+            "held_by": by,
+            "error": f"the cell is held (cycle stop by {by}): {request.op} was not run; "
+            "it runs again after a release",
+        }
+
+    def _line_command(self, request: Request) -> dict[str, object]:
+        if self.line is None:
+            error = f"{request.op}: this session has no line state"
+            return {"ok": False, "status": Status.BAD_REQUEST, "error": error}
+        return self.line.command(request.op, f"request {request.id}")
+
+    def _line_fields(self) -> dict[str, object]:
+        """The line's fields of a ``status`` reply (none without a line state)."""
+        return self.line.status_fields() if self.line is not None else {}
 
     def _parse(self, line: bytes | str) -> Request:
         data = _parse_json(line)
@@ -245,7 +317,7 @@ class Runner:
                 "tcp_pose": ur_pose_list(reached),
             }
         if request.op == "status":
-            return status_reply(cell)
+            return {**status_reply(cell), **self._line_fields()}
         if request.op == "resume":
             cell.resume(request_id=rid)
             return {"ok": True, "status": Status.READY}
@@ -254,7 +326,11 @@ class Runner:
             return {"ok": True, "status": Status.BYE}
         if request.op == "stop":  # nothing was running: the cell halts until resume
             self.cell.request_stop(f"stopped by request {request.id}")
+            if self.line is not None:
+                self.line.noted_stop(f"request {request.id}")
             return {"ok": True, "status": Status.STOPPED, "request": None}
+        if request.op in _LINE_OPS:
+            return self._line_command(request)
         raise BadRequest(f"{request.op}: incomplete request")
 
 

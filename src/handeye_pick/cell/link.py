@@ -28,13 +28,16 @@ ArmFactory = Callable[[CellConfig], RobotArm]
 
 
 def connect_ur_rtde(config: CellConfig, on_sample: SampleListener | None = None) -> RobotArm:
-    """The ur_rtde session for a cell (IO only when a gripper output is configured);
-    ``on_sample`` hears every RTDE sample it reads."""
+    """The ur_rtde session for a cell (IO only when a gripper output or a line output is
+    configured); ``on_sample`` hears every RTDE sample it reads. With ``line.io``, the session
+    also serves the line's wired handshake (``robot.ur.line_io``)."""
     from handeye_pick.robot.ur.arm import URRtdeArm
+    from handeye_pick.robot.ur.line_io import LineIoArm
 
-    return URRtdeArm(
+    return (URRtdeArm if config.line.io is None else LineIoArm)(
         config.robot.host,
-        with_io=isinstance(config.robot.gripper, GripperConfig),
+        with_io=isinstance(config.robot.gripper, GripperConfig)
+        or (config.line.io is not None and bool(config.line.io.outputs)),
         stop_decel_mps2=config.motion.stop_decel_mps2,
         watchdog_s=config.robot.watchdog_s,
         on_sample=on_sample,

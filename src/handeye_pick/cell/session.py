@@ -152,6 +152,11 @@ class Cell:
         return self._state.link.arm
 
     @property
+    def connected(self) -> bool:
+        """Whether the robot session is open (False after a lost link, until ``resume``)."""
+        return self._state.link.connected
+
+    @property
     def halted(self) -> str | None:
         """Why the cell is halted (motion refused until ``resume``), or None."""
         return self._state.halted

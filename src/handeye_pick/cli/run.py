@@ -4,7 +4,8 @@ On standard input/output by default (progress and logs on stderr), so a vision p
 language drives the cell through a pipe; with ``--listen HOST:PORT`` over TCP, one client at a
 time. The protocol is ``handeye_pick.runner``. Exit status: 0 after ``quit`` or the end of
 input, 130 (Ctrl-C) or 143 (SIGTERM) after stopping the arm and answering the request in flight,
-2 bad config or arguments, 4 when the robot cannot be reached at start.
+2 bad config or arguments, 4 when the robot cannot be reached at start. ``--opcua`` and the cell
+config's ``line.io`` open the line's other doors (``handeye_pick.line``, docs/line.md).
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ from handeye_pick.errors import InputError
 from handeye_pick.progress import Progress
 
 if TYPE_CHECKING:
+    from handeye_pick.line.doors import OpcUaOptions
     from handeye_pick.runner import Runner
 
 MAX_TOKEN_FILE_BYTES = 4096
@@ -77,16 +79,32 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help='file holding a shared secret that every request must carry as "token" '
         "(never give the secret itself on the command line)",
     )
+    parser.add_argument(
+        "--opcua",
+        metavar="[HOST:]PORT",
+        help="serve the line state, counters and the commands CycleStop, Release, Stop and "
+        "Resume over OPC UA on PORT of 127.0.0.1, or of HOST (docs/line.md); a remote HOST "
+        "needs --allow-remote and --opcua-users",
+    )
+    parser.add_argument(
+        "--opcua-users",
+        type=Path,
+        metavar="FILE",
+        help="OPC UA users with scrypt-hashed passwords (python -m handeye_pick.line.users "
+        "FILE NAME adds one): Basic256Sha256 only, anonymous clients read but never call",
+    )
     parser.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from handeye_pick.cell.session import Cell
     from handeye_pick.config.load import load_config
+    from handeye_pick.line.doors import opened_line
     from handeye_pick.runner import Runner
 
     address = _listen_address(args.listen, args.allow_remote) if args.listen else None
     live = _live_address(args.live, args.allow_remote) if args.live else None
+    opcua = _opcua_options(args) if args.opcua else None
     token = _read_token(args.token_file) if args.token_file is not None else None
     if address is not None and not ipaddress.ip_address(address[0]).is_loopback and not token:
         raise InputError("run --allow-remote needs --token-file FILE with a shared secret")
@@ -103,10 +121,11 @@ def run(args: argparse.Namespace) -> int:
                 progress.say(f"live view on ws://{live[0]}:{publisher.live_port}")
         with Cell(config, progress=progress, observer=publisher) as cell:
             runner = Runner(cell, token)
-            if address is None:
-                _serve(runner, sys.stdin.fileno(), sys.stdout)
-            else:
-                _serve_tcp(runner, address, progress)
+            with opened_line(cell, runner, opcua, progress):
+                if address is None:
+                    _serve(runner, sys.stdin.fileno(), sys.stdout)
+                else:
+                    _serve_tcp(runner, address, progress)
     return 0
 
 
@@ -172,6 +191,7 @@ class _Loop:
             try:
                 line = self.waiting.get(timeout=WAIT_POLL_S)
             except queue.Empty:
+                self.runner.idle()  # a resume handed over by the line's other doors
                 continue  # wake now and then so Ctrl-C is never held up by the wait
             if line is None:
                 return
@@ -194,9 +214,15 @@ def _serve_tcp(runner: Runner, address: tuple[str, int], progress: Progress) -> 
         except OSError as exc:
             raise InputError(f"run --listen {address[0]}:{address[1]}: {exc.strerror}") from None
         server.listen(1)
+        server.settimeout(WAIT_POLL_S)  # between clients the cell's thread still serves the line
         progress.say(f"listening on {address[0]}:{server.getsockname()[1]}")
         while not runner.quit:
-            client, peer = server.accept()
+            try:
+                client, peer = server.accept()
+            except TimeoutError:
+                runner.idle()
+                continue
+            client.settimeout(None)
             progress.say(f"client {peer[0]}:{peer[1]} connected")
             # A client that leaves (even mid-reply) ends only its connection, not the session.
             with client, client.makefile("w") as writer, contextlib.suppress(ConnectionError):
@@ -274,6 +300,18 @@ def _live_address(text: str, allow_remote: bool) -> tuple[str, int]:
     """``--live [HOST:]PORT``: 127.0.0.1 when no host is given."""
     with_host = text if ":" in text else f"127.0.0.1:{text}"
     return _listen_address(with_host, allow_remote, "--live", "sees the cell and its audit")
+
+
+def _opcua_options(args: argparse.Namespace) -> OpcUaOptions:
+    """``--opcua [HOST:]PORT``: 127.0.0.1 when no host is given; refused (exit 2) before
+    anything connects when remote without --allow-remote and --opcua-users."""
+    from handeye_pick.line.doors import OpcUaOptions
+
+    with_host = args.opcua if ":" in args.opcua else f"127.0.0.1:{args.opcua}"
+    host, port = _listen_address(with_host, True, "--opcua", "sees the cell and may stop it")
+    options = OpcUaOptions(host, port, args.opcua_users, args.allow_remote)
+    options.check()
+    return options
 
 
 def _read_token(path: Path) -> str:

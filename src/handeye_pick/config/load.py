@@ -14,6 +14,7 @@ from pathlib import Path
 from handeye_pick.arm.models import MODEL_NAMES
 from handeye_pick.config.gripper import Robotiq2FConfig
 from handeye_pick.config.hand_eye import read_hand_eye
+from handeye_pick.config.line import LineConfig, read_line
 from handeye_pick.config.motion import read_motion, read_workspace
 from handeye_pick.config.payload import read_object
 from handeye_pick.config.poses import read_capture, read_grasp, read_place, read_poses
@@ -46,6 +47,7 @@ _SECTIONS = (
     "object",
     "scene",
     "tool",
+    "line",
 )
 
 
@@ -108,6 +110,7 @@ def load_config(path: Path) -> CellConfig:
         object=part,
         scene=scene,
         tool_shape=tool_shape,
+        line=read_line(top, robot.gripper) if top.has("line") else LineConfig(),
     )
 
 

@@ -16,6 +16,7 @@ import numpy as np
 
 from handeye_pick.arm.models import ArmModel
 from handeye_pick.config.gripper import AnyGripperConfig
+from handeye_pick.config.line import LineConfig
 from handeye_pick.errors import ConfigError
 from handeye_pick.geometry import LengthUnit, Transform
 from handeye_pick.hand_eye.files import HandEyeMode
@@ -248,6 +249,7 @@ class CellConfig:
     object: ObjectConfig | None = None  # None: the payload is never changed
     scene: SceneConfig | None = None  # None (and no tool shape): no collision check
     tool_shape: tuple[ToolShape, ...] = ()  # the tool's solids in the flange frame
+    line: LineConfig = field(default_factory=LineConfig)  # the wired handshake (docs/line.md)
 
     def pose(self, name: str) -> NamedPose:
         """The named pose ``name``; ConfigError naming the known ones when it is not defined."""

@@ -70,7 +70,8 @@ KEPT_UNKNOWN_KINDS = 20
 """Distinct unknown record kinds named in the report; further ones count as ``other``."""
 HISTOGRAM_BINS = 20
 """Cycle-time histogram bins up to the 99th percentile; longer cycles count as ``over``."""
-KNOWN_EVENTS = frozenset({"capture", "plan", "outcome", "resume"})
+KNOWN_EVENTS = frozenset({"capture", "plan", "outcome", "resume", "line"})
+"""Record kinds the report knows; ``line`` (a line command, docs/line.md) counts in none."""
 # The statuses the hot path compares with, as plain strings (an enum's .value costs a call).
 _ABANDONED = "abandoned"
 _DONE, _DRY_RUN, _HALTED = Status.DONE.value, Status.DRY_RUN.value, Status.HALTED.value
@@ -320,10 +321,11 @@ class Tally:
             self._current_hour = (start, bucket)
         return bucket
 
-    def finish(self) -> ShiftReport:
-        """The report of every entry added so far."""
+    def finish(self, now: float | None = None) -> ShiftReport:
+        """The report of every entry added so far; ``now`` (s since the epoch) ends a window
+        without ``until`` instead of the last record (the line's live counters)."""
         start = self.since if self.since is not None else self.first
-        end = self.until if self.until is not None else self.last
+        end = self.until if self.until is not None else (now if now is not None else self.last)
         halted_s, halts = self.halted_s, self.counts["halts"]
         still_open = self.open_halt
         if still_open is not None and (self.until is None or still_open.time < self.until):

@@ -98,6 +98,9 @@ class Child:
         """Why the session is over, or None while it lives."""
         self._call_timeout_s = call_timeout_s
         self._pending_reply = False
+        # One request and its answer at a time: the line's I/O thread (handeye_pick.line.io)
+        # shares the pipe with the thread that runs the cell.
+        self._call_lock = threading.Lock()
         parent_socket, child_socket = socket.socketpair()
         # A plain subprocess, not multiprocessing: no re-import of the caller's __main__, and
         # its own session, so a Ctrl-C at the terminal reaches only this process, which then
@@ -142,7 +145,12 @@ class Child:
 
     def call(self, operation: str, *args: object, timeout_s: float | None = None) -> object:
         """One request to the child; its result, or a typed error. Ends the session on a lost
-        link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``)."""
+        link, a dead child or no answer within ``timeout_s`` (default ``call_timeout_s``).
+        Safe from any thread: calls are served one at a time."""
+        with self._call_lock:
+            return self._call(operation, args, timeout_s)
+
+    def _call(self, operation: str, args: tuple[object, ...], timeout_s: float | None) -> object:
         timeout_s = self._call_timeout_s if timeout_s is None else timeout_s
         self.require_alive(operation)
         if self._pending_reply:  # a call was interrupted by Ctrl-C: drop its late answer first

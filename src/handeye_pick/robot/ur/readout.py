@@ -72,10 +72,11 @@ _FIELDS: tuple[tuple[str, str], ...] = (
     ("safety_status_bits", "UINT32"),
     ("runtime_state", "UINT32"),
     ("tcp_offset", "VECTOR6D"),
+    ("actual_digital_input_bits", "UINT64"),
 )
 _OPTIONAL = ("tcp_offset",)
 """Served from PolyScope 3.12.3 / 5.5.1 only; an older controller answers NOT_FOUND."""
-_FORMATS = {"DOUBLE": "d", "VECTOR6D": "6d", "INT32": "i", "UINT32": "I"}
+_FORMATS = {"DOUBLE": "d", "VECTOR6D": "6d", "INT32": "i", "UINT32": "I", "UINT64": "Q"}
 _PROTECTIVE_STOPPED_BIT = 2
 _EMERGENCY_STOPPED_BIT = 7
 """``safety_status_bits``: bit 2 is protective stopped, bit 7 emergency stopped (either kind)."""
@@ -101,6 +102,7 @@ class ControllerReadout:
     loaded_program: str | None
     dashboard_problem: str | None
     command_register_held: bool | None = None
+    digital_input_bits: int = 0  # standard inputs bits 0-7, configurable 8-15, tool 16-17
 
     @property
     def T_base_flange(self) -> Transform | None:
@@ -153,10 +155,18 @@ def read_controller(host: str) -> ControllerReadout:
         program_state=program_state,
         loaded_program=loaded,
         dashboard_problem=dashboard_problem,
+        digital_input_bits=int(values["actual_digital_input_bits"][0]),
     )
     if not readout.control_script_running:
         return readout
     return replace(readout, command_register_held=_command_register_held(host))
+
+
+def read_digital_inputs(host: str) -> int:
+    """``actual_digital_input_bits`` of one RTDE package read from outside (no dashboard, no
+    program): the line's handshake while the session has no link (``handeye_pick.line.io``)."""
+    values, _ = _read_rtde(host)
+    return int(values["actual_digital_input_bits"][0])
 
 
 @contextlib.contextmanager
