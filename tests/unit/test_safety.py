@@ -548,3 +548,17 @@ def test_a_move_on_a_robot_in_local_control_is_refused_saying_what_to_do() -> No
         "moveL on 127.0.0.9 refused, nothing sent: the robot was switched to local control; "
         "switch the teach pendant back to Remote Control"
     )
+
+
+def test_the_motion_checks_say_each_value_with_its_unit_and_cap() -> None:
+    motion = MotionConfig(speed_mps=2.0, accel_mps2=9.0, grasp_speed_mps=0.3)
+    refusal, _ = _refusal(motion=motion)
+    details = {r.name: r.detail for r in refusal.results if r.target == "motion"}
+    assert details["speed"] == "speed 2 m/s outside (0, 1] m/s"
+    assert details["grasp_speed"] == (
+        f"grasp speed 0.3 m/s outside (0, {MAX_GRASP_SPEED_MPS:g}] m/s"
+    )
+    assert details["accel"] == "acceleration 9 m/s^2 outside (0, 4] m/s^2"
+    ok = {r.name: r.detail for r in preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, FakeArm())}
+    assert ok["speed"] == "0.25 m/s within caps"
+    assert ok["accel"] == "1.2 m/s^2 within caps"
