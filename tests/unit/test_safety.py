@@ -16,7 +16,12 @@ from handeye_pick.config.schema import MotionConfig, WorkspaceConfig
 from handeye_pick.detection import load_detection
 from handeye_pick.errors import RobotFault, SafetyRefusal
 from handeye_pick.geometry import Transform, make_transform, rotation_from_euler, ur_pose_to_matrix
-from handeye_pick.hand_eye.files import HandEyeMode
+from handeye_pick.hand_eye.files import (
+    CELL_CONFIG,
+    HandEyeMode,
+    load_hand_eye,
+    write_zivid_transform,
+)
 from handeye_pick.limits import MAX_GRASP_SPEED_MPS, MAX_JOINT_SPEED_RPS, MAX_SPEED_MPS
 from handeye_pick.robot.port import (
     OutputBank,
@@ -359,15 +364,15 @@ def test_a_joint_target_is_asked_once_per_session() -> None:
     ("center_x_m", "passed", "why"),
     [
         (0.4, True, ""),
-        (0.79, False, "x 815.0 mm above max 800 mm"),
-        (-0.79, False, "x -815.0 mm below min -800 mm"),
+        (0.75, False, "x 850.0 mm above max 800 mm"),
+        (-0.75, False, "x -850.0 mm below min -800 mm"),
     ],
 )
 def test_a_blend_corner_must_stay_inside_the_box_and_says_its_radius_in_mm(
     center_x_m: float, passed: bool, why: str
 ) -> None:
     corner = CornerTarget(
-        "place_approach", np.array([center_x_m, 0.1, 0.3]), 0.025, np.array([0.025, 0.025, 0.0])
+        "place_approach", np.array([center_x_m, 0.1, 0.3]), 0.1, np.array([0.1, 0.1, 0.0])
     )
     if passed:
         results = preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, FakeArm(), corners=[corner])
@@ -377,7 +382,7 @@ def test_a_blend_corner_must_stay_inside_the_box_and_says_its_radius_in_mm(
         results = info.value.results
     (check,) = [r for r in results if r.name == "corner_workspace"]
     assert (check.target, check.passed) == ("place_approach", passed)
-    where = "a 25.0 mm blend around the target"
+    where = "a 100.0 mm blend around the target"
     if passed:
         assert check.detail == f"{where} stays inside the box"
     else:
@@ -496,16 +501,17 @@ def test_the_chain_checks_of_a_wrist_camera_use_the_flange_and_say_how_to_acknow
 
 def test_each_pose_check_says_the_tcp_position_in_mm_and_what_it_found() -> None:
     targets = {
-        "approach": _down(0.90004, 0.1, 0.9),  # outside the box on two axes
-        "grasp": _down(0.40004, 0.1, 0.2),
+        "approach": _down(0.90026, 0.1, 0.9),  # outside the box on two axes
+        "grasp": _down(0.40026, 0.1, 0.2),
     }
-    arm = FakeArm(unsafe=(targets["grasp"][:3, 3],))
+    arm = FakeArm(unsafe=(targets["grasp"][:3, 3],), unreachable=(targets["approach"][:3, 3],))
     refusal, _ = _refusal(targets, arm=arm)
     details = {(r.target, r.name): r.detail for r in refusal.results}
-    approach, grasp = "the TCP at [900.0, 100.0, 900.0] mm", "the TCP at [400.0, 100.0, 200.0] mm"
+    approach, grasp = "the TCP at [900.3, 100.0, 900.0] mm", "the TCP at [400.3, 100.0, 200.0] mm"
     assert details["approach", "workspace"] == (
-        f"{approach}: x 900.0 mm above max 800 mm, z 900.0 mm above max 800 mm"
+        f"{approach}: x 900.3 mm above max 800 mm, z 900.0 mm above max 800 mm"
     )
+    assert details["approach", "ik"] == f"controller finds no inverse kinematics for {approach}"
     assert details["grasp", "workspace"] == f"{grasp} inside the box"
     assert details["approach", "safety_limits"] == f"controller safety limits accept {approach}"
     assert details["grasp", "safety_limits"] == f"controller safety limits refuse {grasp}"
@@ -562,3 +568,14 @@ def test_the_motion_checks_say_each_value_with_its_unit_and_cap() -> None:
     ok = {r.name: r.detail for r in preflight(_pose_targets(TARGETS), MOTION, WORKSPACE, FakeArm())}
     assert ok["speed"] == "0.25 m/s within caps"
     assert ok["accel"] == "1.2 m/s^2 within caps"
+
+
+def test_the_chain_checks_of_a_fixed_camera_use_the_cell_workspace(tmp_path: Path) -> None:
+    """A camera 1 m above the demo's workspace looking up, not at it: refused only because the
+    chain checks are given the cell's workspace."""
+    config = load_config(ROOT / "config" / "demo.yaml")
+    path = tmp_path / "eye_to_hand.yaml"
+    write_zivid_transform(path, make_transform(np.diag([1.0, 1.0, 1.0]), [0.0, -0.4, 1.0]), "mm")
+    calibration = load_hand_eye(path, HandEyeMode.EYE_TO_HAND, "mm", False, settings=CELL_CONFIG)
+    names = [r.name for r in chain_checks(config, calibration, None, None)]
+    assert "plausible camera-looks-at-workspace" in names
