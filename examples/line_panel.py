@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import json
+import logging
 import subprocess
 import sys
 import threading
@@ -168,6 +169,9 @@ def main() -> int:
     parser.add_argument("--host", default="127.0.0.1", help="loopback address of the simulator")
     parser.add_argument("--picks", type=int, default=5)
     args = parser.parse_args()
+    # The panel's client outlives the server when run ends; asyncua would log that it cannot
+    # close a session on a closed connection.
+    logging.getLogger("asyncua").setLevel(logging.ERROR)
     config = write_config(args.host)
     url = f"opc.tcp://{args.host}:{PORT}"
     with SimulatedController(host=args.host, tcp_offset=[0, 0, 0.12, 0, 0, 0],
