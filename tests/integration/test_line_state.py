@@ -1,0 +1,204 @@
+"""The line state (``handeye_pick.line.state.Line``) driven in-process on a session against the
+simulated controller through the real ur_rtde: the states each door reads, the hold, the
+immediate stop, the resume handed to the cell's thread, and the ``line`` audit record of each
+command. ``tests/integration/test_line.py`` drives the same through ``handeye-pick run``; this
+file holds what mutation testing can see (it traces only in-process calls)."""
+
+from __future__ import annotations
+
+import json
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from handeye_pick.cell.session import Cell
+from handeye_pick.errors import Status
+from handeye_pick.line.counters import AuditCounters
+from handeye_pick.line.state import ItemState, Line, OperationMode
+from handeye_pick.runner import Runner
+from tests.integration.test_pick_cli import TCP_OFFSET
+from tests.integration.test_run_loop import SimFactory, _unlock_protective_stop, loop_config
+
+
+@pytest.fixture
+def cell_line(sim_controller: SimFactory, tmp_path: Path) -> Iterator[tuple[Line, Any]]:
+    """A connected cell, its runner and its line state, as ``run`` makes them."""
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with Cell(loop_config(tmp_path, ctl.host)) as cell:
+        runner = Runner(cell)
+        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
+        runner.line = line
+        yield line, ctl
+
+
+def line_records(line: Line) -> list[dict[str, Any]]:
+    """The ``line`` records of the cell's audit file, in order."""
+    records = [json.loads(text) for text in line.counters.path.read_text().splitlines()]
+    return [record for record in records if record.get("event") == "line"]
+
+
+def test_a_ready_cell_is_not_executing_in_processing_mode(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    view = line.view()
+    assert (view.state, view.held, view.held_by, view.halted_reason, view.request) == (
+        ItemState.NOT_EXECUTING, False, None, None, None,
+    )  # fmt: skip
+    assert (view.mode, view.mode.title, view.state.title) == (
+        OperationMode.PROCESSING, "Processing", "NotExecuting",
+    )  # fmt: skip
+    assert view.ready
+    assert view.heartbeat_s >= 0
+    assert line.status_fields() == {"held": False, "held_by": None, "line_state": "NotExecuting"}
+    assert line.held_s() == 0.0
+
+
+def test_a_cycle_stop_holds_for_every_door_until_a_release(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    held = line.cycle_stop("opcua alice")
+    assert (held.ok, held.text) == (True, "held: no request runs")
+    assert line.held() == "opcua alice"
+    view = line.view()
+    assert (view.held, view.held_by, view.ready) == (True, "opcua alice", False)
+    assert line.status_fields() == {
+        "held": True, "held_by": "opcua alice", "line_state": "NotExecuting",
+    }  # fmt: skip
+    again = line.cycle_stop("input DI4")
+    assert (again.ok, again.text) == (True, "held already by opcua alice")
+    assert line.held() == "opcua alice"  # the first hold is the one in force
+    # A motion request from the vision program is answered held and never runs.
+    reply = line.runner.handle(json.dumps({"id": "m", "op": "move", "pose": "home"}))
+    assert (reply["ok"], reply["status"], reply["held_by"]) == (False, "held", "opcua alice")
+    assert line.held_s() > 0.0
+    released = line.release("input DI4")
+    assert (released.ok, released.text) == (True, "released (held by opcua alice)")
+    assert (line.held(), line.view().ready) == (None, True)
+    spent = line.held_s()
+    assert spent > 0.0
+    assert line.held_s() == spent  # a released hold no longer counts
+    assert line.release("opcua bob").text == "released: not held"
+    records = line_records(line)
+    assert [(r["command"], r["by"], r["ok"], r["held"], r["halted"]) for r in records] == [
+        ("cycle-stop", "opcua alice", True, True, None),
+        ("cycle-stop", "input DI4", True, True, None),
+        ("release", "input DI4", True, False, None),
+        ("release", "opcua bob", True, False, None),
+    ]  # fmt: skip
+    assert records[0]["message"] == "held: no request runs"
+
+
+def test_a_second_hold_adds_to_the_time_held(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    line.cycle_stop("a")
+    line.release("a")
+    first = line.held_s()
+    line.cycle_stop("b")
+    line.release("b")
+    assert line.held_s() > first
+
+
+def test_the_vision_programs_commands_reply_with_the_hold(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    assert line.command("cycle-stop", "request 7") == {
+        "ok": True, "status": Status.HELD, "held": True, "message": "held: no request runs",
+    }  # fmt: skip
+    assert line.command("release", "request 8") == {
+        "ok": True, "status": Status.READY, "held": False,
+        "message": "released (held by request 7)",
+    }  # fmt: skip
+
+
+def test_an_immediate_stop_halts_until_a_resume_run_by_the_cells_thread(
+    cell_line: tuple[Line, Any],
+) -> None:
+    line, _ = cell_line
+    stopped = line.stop("input DI5")
+    assert (stopped.ok, stopped.text) == (True, "stopped")
+    view = line.view()
+    assert (view.state, view.state.title, view.halted_reason) == (
+        ItemState.OUT_OF_SERVICE, "OutOfService", "stopped by input DI5",
+    )  # fmt: skip
+    assert not view.ready
+    # Another door's resume waits until the cell's thread takes it between requests.
+    results: list[Any] = []
+    door = threading.Thread(target=lambda: results.append(line.resume("opcua alice", 30.0)))
+    door.start()
+    while door.is_alive():
+        line.runner.idle()  # the cell's thread between requests
+        door.join(0.01)
+    (resumed,) = results
+    assert (resumed.ok, resumed.text) == (True, "resumed: the cell is ready")
+    assert (line.view().state, line.cell.halted) == (ItemState.NOT_EXECUTING, None)
+    records = line_records(line)
+    assert [(r["command"], r["by"], r["ok"], r["halted"]) for r in records] == [
+        ("stop", "input DI5", True, "stopped by input DI5"),
+        ("resume", "opcua alice", True, None),
+    ]  # fmt: skip
+    assert records[1]["message"] == "resumed: the cell is ready"
+
+
+def test_a_resume_during_a_protective_stop_is_refused_saying_why(
+    cell_line: tuple[Line, Any],
+) -> None:
+    line, ctl = cell_line
+    ctl.inject("protective-stop")
+    line.stop("opcua alice")
+    assert line.resume("opcua alice", 0).text == "handed to the cell"
+    line.run_pending()
+    records = line_records(line)
+    assert (records[-1]["command"], records[-1]["ok"]) == ("resume", False)
+    assert "protective" in records[-1]["message"].lower()
+    assert line.cell.halted is not None
+    _unlock_protective_stop(ctl.host)
+    line.resume("opcua alice", 0)
+    line.run_pending()
+    assert (line_records(line)[-1]["ok"], line.cell.halted) == (True, None)
+
+
+def test_resumes_past_the_bound_are_not_taken(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    line.stop("opcua alice")
+    taken = [line.resume(f"door {n}", 0) for n in range(5)]
+    assert [r.text for r in taken[:4]] == ["handed to the cell"] * 4
+    assert (taken[4].ok, taken[4].text) == (
+        False, "resumes are waiting already: this one was not taken",
+    )  # fmt: skip
+    line.run_pending()
+    assert [r["by"] for r in line_records(line) if r["command"] == "resume"] == [
+        "door 0", "door 1", "door 2", "door 3",
+    ]  # fmt: skip
+
+
+def test_a_resume_nobody_takes_ends_after_its_wait(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    late = line.resume("opcua alice", 0.05)
+    assert (late.ok, late.text) == (False, "the cell did not finish the resume within 0.05 s")
+
+
+def test_a_stop_while_a_request_runs_says_which(cell_line: tuple[Line, Any]) -> None:
+    """The stop's text names the request running; the state reads Executing meanwhile."""
+    line, _ = cell_line
+    seen: list[Any] = []
+
+    def at_step(step: str) -> None:
+        if not seen:
+            seen.append(line.view())
+            seen.append(line.stop("input DI5"))
+
+    line.cell.watch_steps(at_step)
+    reply = line.runner.handle(json.dumps({"id": "m9", "op": "move", "pose": "home"}))
+    view, stopped = seen
+    assert (view.state, view.request["id"], view.request["op"]) == (
+        ItemState.EXECUTING, "m9", "move",
+    )  # fmt: skip
+    assert stopped.text == "stopped while request m9 ran move"
+    assert line.cell.halted == "stopped by input DI5 while request m9 ran move"
+    assert reply["ok"] is False
+
+
+def test_a_closed_session_is_not_available(cell_line: tuple[Line, Any]) -> None:
+    line, _ = cell_line
+    line.cell.close()
+    assert line.view().state is ItemState.NOT_AVAILABLE
