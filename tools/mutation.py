@@ -50,6 +50,12 @@ def run_mutmut(module: str | None, max_children: int) -> int:
     # Before mutmut starts: a PYTHONPATH entry that does not exist yet is cached as empty,
     # and the tests would import the unmutated code.
     mutated_src.mkdir(parents=True, exist_ok=True)
+    # A module added to only_mutate after mutants/ was made sits there as a plain copy, which
+    # mutmut takes as unmodified and never mutates: remove it so that mutmut makes it again.
+    for listed in safety_modules():
+        copy = ROOT / "mutants" / PACKAGE / listed
+        if copy.exists() and not copy.with_name(copy.name + ".meta").exists():
+            copy.unlink()
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join(
         p for p in (str(mutated_src), os.environ.get("PYTHONPATH", "")) if p
