@@ -3,6 +3,7 @@ refuses and says, and the command that appends a user."""
 
 from __future__ import annotations
 
+import hashlib
 import stat
 from pathlib import Path
 
@@ -89,6 +90,7 @@ def _broken(line: str) -> list[str]:
         f"{name}:{kind}:{n}:{r}:17:{salt}:{digest}",  # p above 16
         f"{name}:{kind}:{n}:{r}:{p}::{digest}",  # no salt
         f"{name}:{kind}:{n}:{r}:{p}:{salt}:{digest[:30]}",  # a 15-byte hash
+        f"{name}:{kind}:{2**18}:8:{p}:{salt}:{digest}",  # 256 MiB of scrypt
     ]
 
 
@@ -108,12 +110,30 @@ def test_the_bounds_themselves_are_accepted(tmp_path: Path) -> None:
     _, kind, _, _, _, salt, digest = hashed_line("alice", PASSWORD).split(":")
     lines = [
         f"a:{kind}:2:1:1:{salt}:{digest[:32]}",
-        f"b:{kind}:{2**20}:32:16:{salt}:{digest}",
+        f"b:{kind}:{2**20}:1:16:{salt}:{digest}",  # scrypt's memory at its bound, 128 MiB
+        f"c:{kind}:{2**15}:32:1:{salt}:{digest}",
     ]
     read = read_users(_file(tmp_path, *lines))
     assert [(u.n, u.r, u.p, len(u.digest)) for u in read.values()] == [
-        (2, 1, 1, 16), (2**20, 32, 16, 32),
+        (2, 1, 1, 16), (2**20, 1, 16, 32), (2**15, 32, 1, 32),
     ]  # fmt: skip
+
+
+def test_a_user_at_the_memory_bound_signs_in() -> None:
+    """128 MiB of scrypt (N 2^17, r 8): above OpenSSL's default cap of 32 MiB, so the sign-in
+    must give scrypt its own cap."""
+    salt = b"0123456789abcdef"
+    digest = hashlib.scrypt(PASSWORD.encode(), salt=salt, n=2**17, r=8, p=1, dklen=32,
+                            maxmem=2**30)  # fmt: skip
+    user = User("alice", 2**17, 8, 1, salt, digest)
+    assert user.accepts(PASSWORD)
+    assert not user.accepts("wrong password")
+
+
+def test_a_file_with_bytes_that_are_not_utf8_is_still_read(tmp_path: Path) -> None:
+    path = tmp_path / "users"
+    path.write_bytes(b"# op\xe9rateurs \xff\n" + hashed_line("alice", PASSWORD).encode() + b"\n")
+    assert list(read_users(path)) == ["alice"]
 
 
 def test_an_empty_missing_or_huge_file_is_refused_in_one_line(tmp_path: Path) -> None:
@@ -137,11 +157,18 @@ def test_the_command_appends_a_user_readable_only_by_its_owner(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     answers = iter([PASSWORD, PASSWORD, "hunter22", "hunter22"])
-    monkeypatch.setattr(users.getpass, "getpass", lambda prompt: next(answers))
+    prompts: list[str] = []
+
+    def typed(prompt: str) -> str:
+        prompts.append(prompt)
+        return next(answers)
+
+    monkeypatch.setattr(users.getpass, "getpass", typed)
     path = tmp_path / "users"
     assert users.main([str(path), "alice"]) == 0
     assert users.main([str(path), "bob"]) == 0
     assert capsys.readouterr().err == f"alice added to {path}\nbob added to {path}\n"
+    assert prompts == ["password for alice: ", "again: ", "password for bob: ", "again: "]
     assert stat.S_IMODE(path.stat().st_mode) == 0o600
     read = read_users(path)
     assert read["alice"].accepts(PASSWORD)

@@ -22,6 +22,10 @@ from pathlib import Path
 from handeye_pick.errors import InputError
 
 SCRYPT_N, SCRYPT_R, SCRYPT_P = 2**14, 8, 1  # about 16 MB and 30-60 ms a check
+# scrypt needs 128 * r * N bytes: a users line asking for more is refused when the file is
+# read, so that a sign-in never fails on OpenSSL's memory cap (MAX_SCRYPT_BYTES, with room).
+MAX_USER_SCRYPT_BYTES = 128 * 1024 * 1024
+MAX_SCRYPT_BYTES = 2 * MAX_USER_SCRYPT_BYTES
 HASH_BYTES = 32
 MAX_FILE_BYTES = 1_000_000
 MIN_PASSWORD_CHARS = 8
@@ -42,7 +46,7 @@ class User:
         """Whether ``password`` is this user's (compared in constant time)."""
         given = hashlib.scrypt(
             password.encode("utf-8"), salt=self.salt, n=self.n, r=self.r, p=self.p,
-            dklen=len(self.digest), maxmem=256 * 1024 * 1024,
+            dklen=len(self.digest), maxmem=MAX_SCRYPT_BYTES,
         )
         return hmac.compare_digest(given, self.digest)
 
@@ -95,6 +99,8 @@ def _user(line: str) -> User | None:
     except ValueError:
         return None
     if not (2 <= n <= 2**20 and 1 <= r <= 32 and 1 <= p <= 16 and salt and len(digest) >= 16):
+        return None
+    if 128 * r * n > MAX_USER_SCRYPT_BYTES:
         return None
     return User(parts[0], n, r, p, salt, digest)
 
