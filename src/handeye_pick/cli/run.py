@@ -185,8 +185,15 @@ class _Loop:
         finally:
             self.waiting.put(None)
 
+    def first_waiting(self) -> bytes | None:
+        """The request line first in line (None: none waits), left in the line."""
+        with self.waiting.mutex:
+            return self.waiting.queue[0] if self.waiting.queue else None
+
     def run(self) -> None:
-        """The main thread: run waiting requests in order until quit or the end of input."""
+        """The main thread: run waiting requests in order until quit or the end of input; a
+        pick waiting behind a running place is checked while the place moves."""
+        self.runner.watch_queue(self.first_waiting)
         while True:
             try:
                 line = self.waiting.get(timeout=WAIT_POLL_S)
