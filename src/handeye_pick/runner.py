@@ -140,6 +140,7 @@ class Runner:
         self._view_clear_sent = False
         self.line: LineDoor | None = None  # the line state (run), or None
         self._peek: Callable[[], bytes | str | None] | None = None
+        self._not_a_pick: bytes | str | None = None  # the waiting line last found no pick
         cell.watch_steps(self._on_step)
 
     def watch_queue(self, peek: Callable[[], bytes | str | None]) -> None:
@@ -153,8 +154,9 @@ class Runner:
         """The pick request first in line, as the cell would run it; None when none waits, or
         it would not run as a pick now (malformed, a dry run, held, an unknown capture)."""
         line = self._peek() if self._peek is not None else None
-        if line is None:
+        if line is None or line is self._not_a_pick:  # asked at every look: parse it once
             return None
+        self._not_a_pick = line
         try:
             request = self._parse(line)
             if request.op != "pick" or request.dry_run or self._held_reply(request) is not None:
@@ -162,6 +164,7 @@ class Runner:
             capture = self.cell.request_capture(request.capture_id)
         except InputError:
             return None
+        self._not_a_pick = None
         rid = None if request.id is None else str(request.id)
         return AheadRequest(_key(line), request.candidates, capture, request.place, rid)
 

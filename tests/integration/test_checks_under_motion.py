@@ -1,9 +1,9 @@
 """The controller's checks asked while an asynchronous move runs (issue 29, section 3).
 
 ur_rtde's control script serves getInverseKinematics and isPoseWithinSafetyLimits while an
-asynchronous moveL runs (docs/motion.md, "Checks under motion"): the next pick can be checked
-while the place still moves. These tests ask them through the real ur_rtde, from a second
-thread, while the session's own thread watches the move, as the cell does.
+asynchronous moveL runs (docs/motion.md, "The next pick checked under motion"): the next pick
+can be checked while the place still moves. This test asks them through the real ur_rtde, from
+a second thread, while the session's own thread watches the move, as the cell does.
 """
 
 from __future__ import annotations

@@ -308,7 +308,7 @@ def _check_ahead(state: CellState, request: AheadRequest) -> Ahead | None:
     path_start_s = state.path_start_s()
     T_base_flange = _chain_flange(capture, start)
     plans: list[PickPlan] = []
-    place_index = state.place_index + 1 if T_base_tcp_place is not None else None
+    place_index = index if T_base_tcp_place is not None else None
     context: dict[str, object] = {
         "cycle": capture.cycle,
         "request_id": request.request_id,
