@@ -141,6 +141,7 @@ class Runner:
         self.line: LineDoor | None = None  # the line state (run), or None
         self._peek: Callable[[], bytes | str | None] | None = None
         self._not_a_pick: bytes | str | None = None  # the waiting line last found no pick
+        self.check_ahead = True  # run checks a waiting pick while the place moves (watch_queue)
         cell.watch_steps(self._on_step)
 
     def watch_queue(self, peek: Callable[[], bytes | str | None]) -> None:
