@@ -31,6 +31,10 @@ simulator's motion record), the stops motion cannot hide (the gripper's switchin
 eye-in-hand, the acquisition: the camera needs a still arm) and the start of every path it sent
 (the profile's start cost for the uploaded script); detection fully hidden.
 
+``--ahead`` runs only the variants with vision under motion, each twice side by side: the queued
+pick checked while the place moves (docs/motion.md, "The next pick checked under motion") and
+checked only in its turn (``run --no-check-ahead``).
+
 The simulated controller charges a program start as its profile says (``program_start_cost``,
 mocks/ur_controller/README.md "Program start cost"): every path ur_rtde uploads starts that
 long after it arrives, as on a real controller; the figure used is printed.
@@ -50,7 +54,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -95,6 +99,7 @@ class Variant:
     blend_mm: float
     always: bool  # motion.blend_always
     overlap: bool  # vision under motion
+    ahead: bool = True  # the queued pick checked while the place moves
 
 
 VARIANTS = [
@@ -279,7 +284,8 @@ def run_variant(
         folder = Path(tmp)
         (folder / "cell.yaml").write_text(cell_yaml(folder, mode, variant, factor, host))
         process = subprocess.Popen(
-            [*CLI, "run", "--config", str(folder / "cell.yaml")],
+            [*CLI, "run", "--config", str(folder / "cell.yaml")]
+            + ([] if variant.ahead else ["--no-check-ahead"]),
             cwd=ROOT,
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
@@ -317,7 +323,15 @@ def main() -> None:
     parser.add_argument("--speed-factor", type=float, default=1.0, help="simulated speed (1)")
     parser.add_argument("--seed", type=int, default=1, help="where the parts lie (default 1)")
     parser.add_argument("--host", default=HOST, help=f"simulated controller address ({HOST})")
+    parser.add_argument(
+        "--ahead",
+        action="store_true",
+        help="only vision under motion, the queued pick checked under motion against in its turn",
+    )
     args = parser.parse_args()
+    if args.ahead:
+        ahead_main(args)
+        return
     factor = args.speed_factor
     print(
         f"cycle time per capture/pick/place ({args.cycles} cycles per variant, simulated UR5e "
@@ -367,6 +381,30 @@ def main() -> None:
             f"motion); always / stop-and-go {medians[always_overlap] / medians[stop_overlap]:.3f}"
             " (vision under motion)"
         )
+
+def ahead_main(args: argparse.Namespace) -> None:
+    """``--ahead``: each variant with vision under motion, the queued pick checked while the
+    place moves against checked only in its turn, side by side in one run."""
+    factor = args.speed_factor
+    print(
+        f"vision under motion, the queued pick checked under motion vs in its turn "
+        f"({args.cycles} cycles per variant, simulated UR5e at {args.host}, {factor:g} x speed)"
+    )
+    for mode in (Mode("eye-in-hand", True), Mode("eye-to-hand", False)):
+        print(f"{mode.name}:")
+        for variant in VARIANTS[3:]:
+            turn = replace(variant, ahead=False)
+            try:
+                ahead = run_variant(mode, variant, args.cycles, factor, args.seed, args.host)
+                later = run_variant(mode, turn, args.cycles, factor, args.seed, args.host)
+            except (RuntimeError, TimeoutError, OSError) as exc:
+                sys.exit(f"cycle_time: {mode.name} did not run through: {exc}")
+            ahead_s, later_s = statistics.median(ahead.times), statistics.median(later.times)
+            print(
+                f"  {variant.label:<36} checked ahead {ahead_s:5.3f} s  in its turn "
+                f"{later_s:5.3f} s  ratio {ahead_s / later_s:.3f}"
+            )
+
 
 if __name__ == "__main__":
     main()

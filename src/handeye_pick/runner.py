@@ -45,6 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
 
+from handeye_pick.cell.ahead import AheadRequest
 from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.pick import PickResult
 from handeye_pick.cell.plan import NoFeasibleCandidate
@@ -138,7 +139,35 @@ class Runner:
         self._events = False  # the running request asked for its event lines
         self._view_clear_sent = False
         self.line: LineDoor | None = None  # the line state (run), or None
+        self._peek: Callable[[], bytes | str | None] | None = None
+        self._not_a_pick: bytes | str | None = None  # the waiting line last found no pick
+        self.check_ahead = True  # run checks a waiting pick while the place moves (watch_queue)
         cell.watch_steps(self._on_step)
+
+    def watch_queue(self, peek: Callable[[], bytes | str | None]) -> None:
+        """``peek`` gives the request line first in line behind the running one (None: none
+        waits); a pick waiting behind a running place is checked while the place moves
+        (``Cell.look_ahead``). Called from the cell's thread."""
+        self._peek = peek
+        self.cell.look_ahead(self._waiting_pick)
+
+    def _waiting_pick(self) -> AheadRequest | None:
+        """The pick request first in line, as the cell would run it; None when none waits, or
+        it would not run as a pick now (malformed, a dry run, held, an unknown capture)."""
+        line = self._peek() if self._peek is not None else None
+        if line is None or line is self._not_a_pick:  # asked at every look: parse it once
+            return None
+        self._not_a_pick = line
+        try:
+            request = self._parse(line)
+            if request.op != "pick" or request.dry_run or self._held_reply(request) is not None:
+                return None
+            capture = self.cell.request_capture(request.capture_id)
+        except InputError:
+            return None
+        self._not_a_pick = None
+        rid = None if request.id is None else str(request.id)
+        return AheadRequest(_key(line), request.candidates, capture, request.place, rid)
 
     @property
     def running(self) -> dict[str, object] | None:
@@ -160,12 +189,13 @@ class Runner:
             return bad_request_reply(line, exc)
         held = self._held_reply(request)
         if held is not None:
+            self.cell.drop_ahead(_key(line), Status.HELD, str(held["error"]))
             return held
         if request.op in _MOTION_OPS:
             self._busy = {"id": request.id, "op": request.op}
             self._events, self._view_clear_sent = request.events, False
         try:
-            return {"id": request.id, **self._dispatch(request)}
+            return {"id": request.id, **self._dispatch(request, _key(line))}
         except (KeyboardInterrupt, SystemExit):
             raise
         except (InputError, SafetyRefusal, RobotError) as exc:
@@ -285,7 +315,7 @@ class Runner:
         if not isinstance(given, str) or not hmac.compare_digest(given, self._token):
             raise BadRequest("missing or wrong token: every request must carry the shared token")
 
-    def _dispatch(self, request: Request) -> dict[str, object]:
+    def _dispatch(self, request: Request, key: str) -> dict[str, object]:
         cell = self.cell
         rid = None if request.id is None else str(request.id)
         if request.op == "capture":
@@ -303,6 +333,7 @@ class Runner:
                 place=request.place,
                 dry_run=request.dry_run,
                 request_id=rid,
+                ahead_key=key,
             )
             return pick_reply(result)
         if request.op == "place":
@@ -332,6 +363,11 @@ class Runner:
         if request.op in _LINE_OPS:
             return self._line_command(request)
         raise BadRequest(f"{request.op}: incomplete request")
+
+
+def _key(line: bytes | str) -> str:
+    """What a request line is known by when a pick is checked ahead: the line itself."""
+    return line.decode(errors="replace") if isinstance(line, bytes) else line
 
 
 def bad_request_reply(line: bytes | str, exc: BadRequest) -> dict[str, object]:

@@ -10,6 +10,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
+from handeye_pick.audit import AuditLog
 from handeye_pick.cell.records import (
     audited_outcome,
     blends_record,
@@ -18,6 +19,7 @@ from handeye_pick.cell.records import (
 )
 from handeye_pick.cell.sequence import Executed, execute
 from handeye_pick.cell.state import CellState
+from handeye_pick.config.schema import CellConfig
 from handeye_pick.geometry import Transform
 from handeye_pick.gripper import GraspState
 from handeye_pick.safety import CheckResult
@@ -35,6 +37,8 @@ class Planned:
     T_base_tcp_start: Transform | None = None  # where the TCP stands as it starts (m), if known
     path_start_s: float | None = None  # the path start cost corners were weighed against (s);
     # None: every target planned as a stop (no blending, a touch test)
+    written: bool = False  # its plan record is on disk already (a pick checked ahead)
+    replanned: str | None = None  # why a pick checked ahead was planned again, when it was
 
 
 Prepare = Callable[[Transform, dict[str, object], dict[str, object]], Planned]
@@ -55,6 +59,7 @@ def run_operation(
     dry_run: bool = False,
     before_move: Callable[[str], None] | None = None,
     holding: GraspState | None = None,
+    audit: AuditLog | None = None,
 ) -> str:
     """Run one motion operation of the cell; returns its pick id.
 
@@ -63,27 +68,18 @@ def run_operation(
     before anything moved); the plan record on disk; the steps (none for a dry run); the outcome
     record with ``finish``'s status. The outcome is appended whatever the ending, and a robot
     error halts the cell (``CellState.halt_on_fault``). ``context`` goes into both records;
-    ``holding`` is a part already carried, watched on every move.
+    ``holding`` is a part already carried, watched on every move. ``audit``: the log of an
+    operation whose plan record was written ahead (``cell.ahead``), else a new one.
     """
-    audit = state.next_operation()
+    audit = state.next_operation() if audit is None else state.made_latest(audit)
     outcome: dict[str, object] = {"event": "outcome", **context, **outcome_fields}
     state.tell_status({"pick_id": audit.pick_id, **context, **outcome_fields})
     with state.told_after(), state.halt_on_fault(), audited_outcome(audit, outcome):
         state.ensure_not_halted()
         planned = prepare(state.ready_tcp_offset(), context, outcome)
-        audit.append(
-            {
-                "event": "plan",
-                **context,
-                **planned.record,
-                "targets": steps_record(planned.steps),
-                **blends_record(planned.steps),
-                **stretches_record(
-                    state.config, planned.steps, planned.T_base_tcp_start, planned.path_start_s
-                ),
-                "checks": [asdict(check) for check in planned.checks],
-            }
-        )
+        if not planned.written:
+            replanned = {"replanned": planned.replanned} if planned.replanned else {}
+            audit.append(plan_entry(state.config, context, planned) | replanned)
         if state.observer is not None:
             scene = state.config.scene
             arm_checked = scene is not None and scene.arm_checked
@@ -91,16 +87,36 @@ def run_operation(
             state.observer.on_plan(planned.steps, planned.T_base_tcp_start, q_actual)
         done = None
         if not dry_run:
-            done = execute(
-                state.config,
-                planned.steps,
-                state.link.arm,
-                state.progress,
-                outcome,
-                before_move,
-                state.link.gripper,
-                holding,
-                state.watch,
-            )
+            state.running_steps = planned.steps
+            try:
+                done = execute(
+                    state.config,
+                    planned.steps,
+                    state.link.arm,
+                    state.progress,
+                    outcome,
+                    before_move,
+                    state.link.gripper,
+                    holding,
+                    state.watch,
+                )
+            finally:  # the next pick checked ahead has its plan record before this outcome
+                state.running_steps = []
+                state.record_ahead(wait=True)
         outcome.update(finish(done))
     return audit.pick_id
+
+
+def plan_entry(
+    config: CellConfig, context: dict[str, object], planned: Planned
+) -> dict[str, object]:
+    """The plan record of ``planned`` (``event: plan``) with ``context``'s fields."""
+    return {
+        "event": "plan",
+        **context,
+        **planned.record,
+        "targets": steps_record(planned.steps),
+        **blends_record(planned.steps),
+        **stretches_record(config, planned.steps, planned.T_base_tcp_start, planned.path_start_s),
+        "checks": [asdict(check) for check in planned.checks],
+    }

@@ -466,6 +466,7 @@ def choose(
     path_start_s: float = 0.0,
     standoff_m: float = 0.0,
     on_plan: Callable[[PickPlan], None] | None = None,
+    start: tuple[Transform, Sequence[float] | None] | None = None,
 ) -> tuple[Chosen, list[CandidateRefusal]]:
     """The first candidate whose whole sequence (the pick, then the place at
     ``T_base_tcp_place`` when given) passes the chain's plausibility and every pre-flight check,
@@ -477,7 +478,10 @@ def choose(
     ``T_base_flange`` (m) is the flange at acquisition; ``T_flange_tcp`` the active TCP offset;
     ``grip`` False leaves the gripper out of the steps (a touch test), ``blend`` False keeps
     every target a stop (``motion.blend_mm`` rounds the corners otherwise, where they save
-    more than ``path_start_s``, what a path start costs on the controller, s). Raises
+    more than ``path_start_s``, what a path start costs on the controller, s). The sequence
+    starts where the arm stands at ``T_base_flange`` with the controller's actual joints, or at
+    ``start``: ``T_base_tcp`` (m) and the joints there (rad; needed when the arm is checked), a
+    pose the arm will stand at (a pick checked ahead, ``cell.ahead``). Raises
     ``NoFeasibleCandidate`` when none passes, or the one candidate's own ``PreflightRefusal``
     (every check listed) when there was only one.
     """
@@ -486,16 +490,25 @@ def choose(
         from handeye_pick.scene.check import SceneCheck
 
         scene = SceneCheck(config.scene, config.tool_shape, T_flange_tcp, config.robot.model)
+    arm_checked = scene is not None and scene.arm is not None
+    if start is None:
+        T_base_tcp_start = compose(T_base_flange, T_flange_tcp)
+        q_start = arm.joint_positions() if arm_checked else None
+    else:
+        T_base_tcp_start = start[0]
+        q_start = tuple(start[1]) if arm_checked and start[1] is not None else None
+        if arm_checked and q_start is None:
+            raise PlanRefused("a pick checked ahead needs the joints it starts with")
     trial = _Trial(
         config,
         arm,
         verdicts,
-        compose(T_base_flange, T_flange_tcp),
+        T_base_tcp_start,
         T_base_tcp_place,
         grip,
         blend,
         scene,
-        arm.joint_positions() if scene is not None and scene.arm is not None else None,
+        q_start,
         path_start_s,
     )
     refusals: list[CandidateRefusal] = []

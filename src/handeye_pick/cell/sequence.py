@@ -146,10 +146,13 @@ def execute(
 class SequenceWatch:
     """Who watches a running sequence from outside: ``on_step`` hears each step's name as it
     starts, ``on_reached`` each stop's name, target (None for a moveJ) and reached
-    ``T_base_tcp`` (m); ``stop``, once set (from any thread), brakes the arm at the next look."""
+    ``T_base_tcp`` (m), ``on_look`` the step in progress at every look while the arm moves
+    (it must not raise: an exception from it stops the arm); ``stop``, once set (from any
+    thread), brakes the arm at the next look."""
 
     on_step: Callable[[str], None] | None = None
     on_reached: Callable[[str, Transform | None, Transform], None] | None = None
+    on_look: Callable[[str], None] | None = None
     stop: threading.Event = field(default_factory=threading.Event)
 
 
@@ -309,6 +312,8 @@ class _Run:
             def on_progress(fraction: float) -> None:
                 self._stop_if_asked(name, fraction)
                 report(fraction)
+                if self.watch.on_look is not None:
+                    self.watch.on_look(str(self.outcome.get("step", name)))
 
             return on_progress
 

@@ -41,10 +41,11 @@ from pathlib import Path
 from types import TracebackType
 
 from handeye_pick.cell import capturing, moves
+from handeye_pick.cell.ahead import AheadRequest
 from handeye_pick.cell.captures import Capture
 from handeye_pick.cell.link import ArmFactory, Link, connect_ur_rtde
 from handeye_pick.cell.observer import CellObserver, Contained
-from handeye_pick.cell.pick import PickResult, TouchTest, run_pick
+from handeye_pick.cell.pick import PickResult, TouchTest, look, run_pick
 from handeye_pick.cell.plan import PickPlan, chain_plan, check_steps
 from handeye_pick.cell.sequence import SequenceWatch
 from handeye_pick.cell.state import CellState
@@ -172,6 +173,36 @@ class Cell:
         """``on_step`` hears the name of each step of a running sequence as it starts (a blended
         path's waypoints included), on the thread that runs it."""
         self._state.watch = replace(self._state.watch, on_step=on_step)
+
+    def look_ahead(self, waiting: Callable[[], AheadRequest | None]) -> None:
+        """While a place runs, check the pick ``waiting`` names (the request in line after the
+        running one, or None) on a second thread, from the pose the place ends at, and write
+        its plan record; ``pick`` with that request's ``ahead_key`` runs it once the arm is
+        confirmed where it was checked to start, or plans it again (``cell.ahead``)."""
+        state = self._state
+        state.watch = replace(state.watch, on_look=lambda step: look(state, step, waiting))
+
+    def drop_ahead(self, key: str, status: Status, error: str) -> None:
+        """The request ``key`` was checked ahead and is answered without running (``status``,
+        ``error``): its audit records end with that outcome."""
+        state = self._state
+        ahead = state.ahead
+        if ahead is None or ahead.request.key != key:
+            return
+        state.ahead = None
+        ahead.wait()
+        if ahead.audit is not None:
+            ahead.audit.append(
+                {
+                    "event": "outcome",
+                    "cycle": ahead.cycle,
+                    "request_id": ahead.request.request_id,
+                    "capture_id": ahead.capture.capture_id,
+                    "dry_run": False,
+                    "status": status,
+                    "error": error,
+                }
+            )
 
     def request_stop(self, why: str = "stop requested") -> None:
         """Halt the cell now and brake a sequence in flight at its next look (every few
@@ -318,6 +349,7 @@ class Cell:
         dry_run: bool = False,
         request_id: str | None = None,
         on_plan: Callable[[PickPlan], None] | None = None,
+        ahead_key: str | None = None,
     ) -> PickResult:
         """Pick the first candidate that passes every check, then place it (when ``place`` and
         a place is configured).
@@ -329,6 +361,7 @@ class Cell:
         nothing moved), ``CellHalted``, ``RobotError`` (the arm was stopped; the cell halts) or
         ``KeyboardInterrupt`` (after stopL). Every ending is in the audit file. ``on_plan`` sees
         each candidate's plan as soon as it exists, before its checks (for reports).
+        ``ahead_key``: the request's key, when it may have been checked ahead (``look_ahead``).
         """
         detections = [candidates] if isinstance(candidates, Detection) else list(candidates)
         return run_pick(
@@ -339,6 +372,7 @@ class Cell:
             dry_run=dry_run,
             request_id=request_id,
             on_plan=on_plan,
+            ahead_key=ahead_key,
         )
 
     def touch_test(

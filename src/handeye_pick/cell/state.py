@@ -13,6 +13,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 from handeye_pick.audit import AuditLog
+from handeye_pick.cell.ahead import Ahead
 from handeye_pick.cell.captures import CaptureBook
 from handeye_pick.cell.link import Link
 from handeye_pick.cell.observer import Contained
@@ -25,6 +26,7 @@ from handeye_pick.gripper import GraspState
 from handeye_pick.hand_eye.files import HandEyeCalibration
 from handeye_pick.progress import Progress
 from handeye_pick.safety import ControllerVerdicts, ensure_not_halted, ensure_ready
+from handeye_pick.steps import Step
 
 
 @dataclass(eq=False)
@@ -50,6 +52,8 @@ class CellState:
     fixed_verdicts: ControllerVerdicts = field(default_factory=dict)
     captures: CaptureBook = field(default_factory=CaptureBook)
     latest_audit: AuditLog | None = None
+    running_steps: list[Step] = field(default_factory=list)  # the sequence running, if any
+    ahead: Ahead | None = None  # the next pick, checked while the running sequence moves
 
     @property
     def host(self) -> str:
@@ -64,8 +68,18 @@ class CellState:
 
     def next_operation(self) -> AuditLog:
         """The audit log of a new operation (connect, pick, move), now the latest one."""
-        self.latest_audit = self.link.next_audit()
-        return self.latest_audit
+        return self.made_latest(self.link.next_audit())
+
+    def record_ahead(self, *, wait: bool) -> None:
+        """The plan record of the pick checked ahead, once its check is done (``wait``: wait
+        for it); never raises (``cell.ahead``)."""
+        if self.ahead is not None:
+            self.ahead.record(self.link.next_audit, wait)
+
+    def made_latest(self, audit: AuditLog) -> AuditLog:
+        """``audit`` (an operation's log made earlier: a pick checked ahead), now the latest."""
+        self.latest_audit = audit
+        return audit
 
     def ensure_not_halted(self) -> None:
         """CellHalted (why, and how to end it) while the cell is halted."""

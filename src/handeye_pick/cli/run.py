@@ -93,6 +93,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
         help="OPC UA users with scrypt-hashed passwords (python -m handeye_pick.line.users "
         "FILE NAME adds one): Basic256Sha256 only, anonymous clients read but never call",
     )
+    parser.add_argument(
+        "--no-check-ahead",
+        action="store_true",
+        help="plan and check each pick only in its turn, never while the place before it moves "
+        "(docs/motion.md); for comparisons",
+    )
     parser.set_defaults(run=run)
 
 
@@ -121,6 +127,7 @@ def run(args: argparse.Namespace) -> int:
                 progress.say(f"live view on ws://{live[0]}:{publisher.live_port}")
         with Cell(config, progress=progress, observer=publisher) as cell:
             runner = Runner(cell, token)
+            runner.check_ahead = not args.no_check_ahead
             with opened_line(cell, runner, opcua, progress):
                 if address is None:
                     _serve(runner, sys.stdin.fileno(), sys.stdout)
@@ -185,8 +192,16 @@ class _Loop:
         finally:
             self.waiting.put(None)
 
+    def first_waiting(self) -> bytes | None:
+        """The request line first in line (None: none waits), left in the line."""
+        with self.waiting.mutex:
+            return self.waiting.queue[0] if self.waiting.queue else None
+
     def run(self) -> None:
-        """The main thread: run waiting requests in order until quit or the end of input."""
+        """The main thread: run waiting requests in order until quit or the end of input; a
+        pick waiting behind a running place is checked while the place moves."""
+        if self.runner.check_ahead:
+            self.runner.watch_queue(self.first_waiting)
         while True:
             try:
                 line = self.waiting.get(timeout=WAIT_POLL_S)
