@@ -55,3 +55,26 @@ def test_a_joint_that_turns_back_counts_both_ways() -> None:
     turned = arm_collide._turned(q, np.array([0, 2, 4]))
     assert turned[:, 2] == pytest.approx([0.0, 0.04, 0.04])
     assert np.all(turned[:, [0, 1, 3, 4, 5]] == 0.0)
+
+
+def test_the_pairs_with_the_part_begin_with_those_without_it() -> None:
+    """The sweep screens the pairs of the tool with the part once and reads a leg without the
+    part from their beginning."""
+    arm = _check(()).arm
+    assert arm is not None
+    plain = arm._pairs(list(arm._tool))
+    held = arm._pairs([*arm._tool, arm._tool[0]])
+    P = len(plain.body)
+    assert len(held.body) > P
+    for mine, theirs in ((plain.body, held.body), (plain.other, held.other)):
+        assert np.array_equal(mine, theirs[:P])
+    assert np.array_equal(plain.moving, held.moving[:P])
+
+
+def test_every_strided_look_set_begins_and_ends_with_the_path() -> None:
+    for looks in range(1, 12):
+        looked = arm_collide._strided(looks)
+        assert looked[0] == 0
+        assert looked[-1] == looks - 1
+        assert np.all(np.diff(looked) >= 1)
+        assert np.all(np.diff(looked) <= arm_collide.SWEEP_STRIDE)

@@ -140,7 +140,8 @@ class ArmCheck:
 
     def _pairs(self, tool: list[Solid]) -> _Pairs:
         """Links (not the shoulder) against every scene obstacle, the shoulder against the
-        floor, each tool solid (and the part) against the base and ``OWN_LINKS``."""
+        floor, each tool solid (and the part) against the base and ``OWN_LINKS``: in the order
+        of ``tool``, so the pairs of a tool with the part last begin with those without it."""
         links = [link.name for link in self.model.links]
         scene = range(len(self.static) - 1)
         base = len(self.static) - 1
@@ -224,11 +225,18 @@ class ArmCheck:
         return geometry
 
     def _margins(
-        self, poses: NDArray[np.float64], pairs: _Pairs, need: NDArray[np.float64]
+        self,
+        poses: NDArray[np.float64],
+        pairs: _Pairs,
+        need: NDArray[np.float64],
+        lower: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float64]:
-        """Each pair's margin (N, P) at every look: its lower bound less the clearance, the
-        exact distance less the clearance where the bound is below ``need`` (N, P)."""
-        margin = self._lower_bounds(poses, pairs) - self.clearance_m
+        """Each pair's margin (N, P) at every look: its lower bound (``lower`` where known)
+        less the clearance, the exact distance less the clearance where the bound is below
+        ``need`` (N, P)."""
+        if lower is None:
+            lower = self._lower_bounds(poses, pairs)
+        margin = lower - self.clearance_m
         for n, p in zip(*np.nonzero(margin < need + PROOF_TOLERANCE_M), strict=True):
             margin[n, p] = self._exact(poses, pairs, int(n), int(p)) - self.clearance_m
         return margin
@@ -381,23 +389,23 @@ class ArmCheck:
         looked: NDArray[np.intp],
         pairs: _Pairs,
         poses: NDArray[np.float64],
-        by_body: NDArray[np.float64],
+        lower: NDArray[np.float64],
+        bounds: NDArray[np.float64],
     ) -> CheckResult | tuple[float, str, str]:
         """``_prove`` of ``leg`` from the looks ``looked`` (indices into its path) whose
-        ``poses`` and step bounds ``by_body`` are known: where the margins there prove every
+        ``poses``, pair distance ``lower`` bounds (``_lower_bounds``) and pair bounds of the
+        steps between them (``_per_pair``) are known: where the margins there prove every
         step, the leg is clear; else every look inside a step they do not prove is added and
         the leg proven from those (``_prove``, which halves a step where it must)."""
-        screened = self._screen(pairs, poses, by_body)
-        if not isinstance(screened, _Screened):
-            return screened
-        m = screened.margins
+        need = np.zeros(lower.shape)
+        need[:-1] = bounds
+        need[1:] = np.maximum(need[1:], bounds)
+        m = self._margins(poses, pairs, need, lower)
         low: NDArray[np.bool_] = np.any(m < PROOF_TOLERANCE_M, axis=1)
-        open_steps = np.flatnonzero(
-            (m[:-1] + m[1:] < screened.bounds).any(axis=1) | low[:-1] | low[1:]
-        )
+        open_steps = np.flatnonzero((m[:-1] + m[1:] < bounds).any(axis=1) | low[:-1] | low[1:])
         if open_steps.size == 0:
             n, p = divmod(int(np.argmin(m)), m.shape[1])
-            return float(m[n, p]) + self.clearance_m, *self._labels(screened.pairs, p)
+            return float(m[n, p]) + self.clearance_m, *self._labels(pairs, p)
         keep = np.zeros(len(leg.path.q), dtype=bool)
         keep[looked] = True
         for k in open_steps:
@@ -442,14 +450,22 @@ class ArmCheck:
         )
         F, poses = self._place(Q, held.tool)
         by_body = self._body_bounds(F[:-1], poses[:-1], turns[1:], held.tool)
+        lower = self._lower_bounds(poses, held)
+        bounds = _per_pair(by_body, held)
         closest: dict[str, tuple[float, str, str]] = {}
         start = 0
         for leg, looked in zip(driven, chosen, strict=True):
             n = len(looked)
             pairs = held if leg.held else self._plain
+            P = len(pairs.body)  # the part's pairs come last in ``held``
             # The steps of this leg only: not the one from its last look to the next leg's first.
             outcome = self._sweep(
-                leg, looked, pairs, poses[start : start + n], by_body[start : start + n - 1]
+                leg,
+                looked,
+                pairs,
+                poses[start : start + n],
+                lower[start : start + n, :P],
+                bounds[start : start + n - 1, :P],
             )
             start += n
             if isinstance(outcome, CheckResult):
@@ -479,7 +495,8 @@ def _per_pair(by_body: NDArray[np.float64], pairs: _Pairs) -> NDArray[np.float64
 
 def _strided(looks: int) -> NDArray[np.intp]:
     """Every ``SWEEP_STRIDE``-th of ``looks`` looks of a path, and its last."""
-    result: NDArray[np.intp] = np.unique(np.r_[np.arange(0, looks, SWEEP_STRIDE), looks - 1])
+    every = np.arange(0, looks, SWEEP_STRIDE)
+    result: NDArray[np.intp] = every if every[-1] == looks - 1 else np.append(every, looks - 1)
     return result
 
 
