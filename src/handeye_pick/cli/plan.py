@@ -96,10 +96,7 @@ def run_plan(args: argparse.Namespace) -> int:
         cloud_base_m=cloud_base_m,
         obstacles=tuple(scene_boxes(config.scene)) if config.scene is not None else (),
         arm=arm,
-        arm_source=f"drawn from our {model.name} IK, the branch nearest home (elbow up, wrist "
-        "down), not the controller's joints"
-        if model is not None
-        else "",
+        arm_source=f"drawn from our {model.name} IK (elbow up, wrist down)" if model else "",
     )
     render_scene(scene, args.plot)
     outside = cell.outside_workspace(plan)
