@@ -147,7 +147,7 @@ def one_candidate(config: CellConfig, repeats: int) -> tuple[str, float]:
         approach = make_transform(R, grasp[:3, 3] + [0.0, 0.0, 0.2])
         plan_steps = pick_steps(_Plan(approach, grasp, approach), grip=True)
         plan_steps += place_steps(config.place.T_base_tcp[0], config.place, grip=True)
-        steps = blended(config, plan_steps, start)
+        steps = blended(config, plan_steps, start, 0.0)  # as choose with no path start cost
         began, began_cpu = time.perf_counter(), time.process_time()
         results = check.check(steps, start, (50.0, 50.0, 50.0), T_base_obj, grasp, Q_CAPTURE)
         if all(r.passed for r in results):  # a clear candidate is swept whole: the cost

@@ -20,6 +20,9 @@ from typing import TYPE_CHECKING, TypeGuard
 import numpy as np
 from numpy.typing import NDArray
 
+from handeye_pick.arm.ik import branches, wrap
+from handeye_pick.arm.kinematics import link_poses
+from handeye_pick.arm.models import ArmModel
 from handeye_pick.errors import InputError
 from handeye_pick.geometry import Transform
 
@@ -68,6 +71,35 @@ class Scene:
     # The scene's boxes (bin walls and floors, fixtures) as (label, edge lengths m, T_base_box
     # of the box's centre), drawn as grey outlines (docs/scene.md)
     obstacles: tuple[tuple[str, NDArray[np.float64], Transform], ...] = ()
+    # The arm's link solids at the plan's stops (``arm_at``): each solid's axis segment (2, 3)
+    # in base, metres, drawn in blue; ``arm_source`` says in the caption where the joints came
+    # from
+    arm: tuple[NDArray[np.float64], ...] = ()
+    arm_source: str = ""
+
+
+ARM_HOME_RAD = (0.0, -np.pi / 2.0, np.pi / 2.0, -np.pi / 2.0, -np.pi / 2.0, 0.0)
+"""A typical home of a UR arm (rad): upper arm up, forearm level, elbow up, wrist down. Drawn
+offline, the arm takes the branch of the model's IK nearest it at every stop."""
+
+
+def arm_at(model: ArmModel, T_base_flange: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """The axis segments (2, 3) in base, metres, of every link solid of ``model`` at each
+    flange pose of ``T_base_flange`` (N, 4, 4, m), on the branch of the model's IK nearest
+    ``ARM_HOME_RAD`` (elbow up, wrist down near a typical home); a pose no branch reaches is
+    left out."""
+    solved = branches(model, T_base_flange).q  # (N, 8, 6)
+    gaps = np.abs(wrap(solved - np.array(ARM_HOME_RAD))).max(axis=2)
+    reached = ~np.all(np.isnan(gaps), axis=1)
+    if not reached.any():
+        return ()
+    nearest = np.nanargmin(np.where(np.isnan(gaps[reached]), np.inf, gaps[reached]), axis=1)
+    q = solved[reached][np.arange(int(reached.sum())), nearest]
+    poses = link_poses(model, q)  # (N, L, 4, 4)
+    half = np.array([link.length_m / 2.0 for link in model.links])[None, :, None]
+    centre, along = poses[..., :3, 3], poses[..., :3, 2]
+    ends = np.stack([centre - half * along, centre + half * along], axis=2)  # (N, L, 2, 3)
+    return tuple(ends.reshape(-1, 2, 3))
 
 
 def scene_frames(scene: Scene) -> list[tuple[str, Transform]]:
@@ -127,6 +159,8 @@ def caption(scene: Scene) -> str:
         "robot base frame, mm; axes x red, y green, z blue; dashed: TCP path; "
         f"orange: workspace ({workspace})" + ("; grey: scene" if scene.obstacles else ""),
     ]
+    if scene.arm:
+        parts.append(f"blue: the arm's links at the stops, {scene.arm_source}")
     return "  |  ".join(parts)
 
 
@@ -182,6 +216,8 @@ def render_scene(scene: Scene, path: Path) -> dict[str, NDArray[np.float64]]:
         for edges in obstacle_edges:
             for a, b in _clipped(edges, *cube) if three_d else edges:
                 ax.plot(*np.stack([a[d], b[d]]).T, color="tab:gray", linewidth=0.8)
+        for segment in scene.arm:
+            ax.plot(*(segment * _M_TO_MM)[:, d].T, color="tab:blue", linewidth=5, alpha=0.35)
         if cloud_mm is not None:
             _scatter(ax, cloud_mm, d)
         ax.plot(*path_mm[:, d].T, "k--", linewidth=1)

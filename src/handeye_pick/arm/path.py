@@ -175,9 +175,96 @@ def follow(
     start = np.asarray(q_start, dtype=np.float64)
     if seen is None:
         seen = looks(model, T_flange_tcp, [curve])[0]
-    s, T_base_tcp, solved = seen.s, seen.T_base_tcp, seen.solved
-    fraction = curve.fraction(0.0) + s * (curve.fraction(1.0) - curve.fraction(0.0))
+    fraction = _fractions(curve, seen.s)
+    q, steps, near = _on_branch(model, curve, seen, start, fraction)
+    problem = _first_problem(model, T_flange_tcp, seen.T_base_tcp, q, steps, near)
+    if problem is not None:
+        index, reason = problem
+        raise JointPathRefused(curve.what, fraction[index], reason)
+    if q_end is not None:
+        apart = np.abs(wrap(q[-1] - np.asarray(q_end, dtype=np.float64)))
+        joint = int(np.argmax(apart))
+        if not apart[joint] <= BRANCH_TOLERANCE_RAD:
+            raise JointPathRefused(
+                curve.what,
+                fraction[-1],
+                f"it ends on another branch than the controller's IK at the target (joint "
+                f"{joint + 1} {_degrees(apart[joint])} apart): the arm would turn another way",
+            )
+    return JointPath(curve.what, q, fraction, seen.s)
 
+
+def follow_looks(
+    model: ArmModel,
+    T_flange_tcp: Transform,
+    curves: Sequence[TcpCurve],
+    seen_all: Sequence[Looks],
+    q_start: ArrayLike,
+) -> list[JointPath]:
+    """The joint paths of consecutive moveL pieces ``curves`` whose ``looks`` are solved
+    already (``seen_all``), each from where the one before ended: what ``follow`` gives piece
+    by piece, with every look of all the pieces checked at once (one batched forward
+    kinematics). Where a check fails, ``follow`` piece by piece names the refusal."""
+    here = np.asarray(q_start, dtype=np.float64)
+    paths: list[JointPath] = []
+    checked: list[tuple[Joints, Joints, _Singular]] = []
+    for curve, seen in zip(curves, seen_all, strict=True):
+        fraction = _fractions(curve, seen.s)
+        q, steps, near = _on_branch(model, curve, seen, here, fraction)
+        paths.append(JointPath(curve.what, q, fraction, seen.s))
+        checked.append((q, steps, near))
+        here = q[-1]
+    if not paths:
+        return paths
+    problem = _first_problem(
+        model,
+        T_flange_tcp,
+        np.concatenate([seen.T_base_tcp for seen in seen_all]),
+        np.concatenate([q for q, _, _ in checked]),
+        np.concatenate([steps for _, steps, _ in checked]),
+        _Singular(
+            np.concatenate([near.shoulder_m for _, _, near in checked]),
+            np.concatenate([near.wrist for _, _, near in checked]),
+            np.concatenate([near.elbow for _, _, near in checked]),
+        ),
+    )
+    if problem is None:
+        return paths
+    here = np.asarray(q_start, dtype=np.float64)
+    for curve, seen in zip(curves, seen_all, strict=True):
+        here = follow(model, T_flange_tcp, curve, here, seen=seen).q[-1]  # raises
+    return paths
+
+
+@dataclass(frozen=True)
+class _Singular:
+    """How near each look (n + 1,) of a path on one branch is to the singularities
+    (``ik.Branches``' measures for that branch)."""
+
+    shoulder_m: NDArray[np.float64]
+    wrist: NDArray[np.float64]
+    elbow: NDArray[np.float64]
+
+
+def _fractions(curve: TcpCurve, s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Where the looks ``s`` along ``curve`` lie along its whole move, 0 to 1."""
+    result: NDArray[np.float64] = curve.fraction(0.0) + s * (
+        curve.fraction(1.0) - curve.fraction(0.0)
+    )
+    return result
+
+
+def _on_branch(
+    model: ArmModel,
+    curve: TcpCurve,
+    seen: Looks,
+    start: Joints,
+    fraction: NDArray[np.float64],
+) -> tuple[Joints, Joints, _Singular]:
+    """The joints ``q`` (n + 1, 6) at the looks on the branch nearest ``start`` (each joint
+    continuous from ``start``), their steps (n, 6) and the branch's nearness to the
+    singularities; ``JointPathRefused`` where no branch starts near ``start``."""
+    solved = seen.solved
     gaps = np.abs(wrap(solved.q[0] - start)).max(axis=1)
     branch = int(np.argmin(np.where(np.isnan(gaps), np.inf, gaps)))
     if np.isnan(gaps[branch]):
@@ -192,22 +279,10 @@ def follow(
     on_branch = solved.q[:, branch]
     steps = wrap(np.diff(on_branch, axis=0))
     q = start + wrap(on_branch[0] - start) + np.concatenate([np.zeros((1, 6)), np.cumsum(steps, 0)])
-
-    problem = _first_problem(model, T_flange_tcp, T_base_tcp, q, steps, solved, branch)
-    if problem is not None:
-        index, reason = problem
-        raise JointPathRefused(curve.what, fraction[index], reason)
-    if q_end is not None:
-        apart = np.abs(wrap(q[-1] - np.asarray(q_end, dtype=np.float64)))
-        joint = int(np.argmax(apart))
-        if not apart[joint] <= BRANCH_TOLERANCE_RAD:
-            raise JointPathRefused(
-                curve.what,
-                fraction[-1],
-                f"it ends on another branch than the controller's IK at the target (joint "
-                f"{joint + 1} {_degrees(apart[joint])} apart): the arm would turn another way",
-            )
-    return JointPath(curve.what, q, fraction, s)
+    near = _Singular(
+        solved.shoulder_m, solved.wrist[:, branch // 4], solved.elbow[:, branch // 2]
+    )
+    return q, steps, near
 
 
 def _first_problem(
@@ -216,8 +291,7 @@ def _first_problem(
     T_base_tcp: NDArray[np.float64],
     q: Joints,
     steps: Joints,
-    solved: Branches,
-    branch: int,
+    near: _Singular,
 ) -> tuple[int, str] | None:
     """The first look along the path the arm cannot take, and why; None when it can take all."""
     found: list[tuple[int, str]] = []
@@ -228,15 +302,15 @@ def _first_problem(
             found.append((int(hits[0]), reason))
 
     first(
-        solved.shoulder_m < SHOULDER_SINGULAR_M,
+        near.shoulder_m < SHOULDER_SINGULAR_M,
         "the wrist passes near joint 1's axis (the shoulder singularity)",
     )
     first(
-        solved.wrist[:, branch // 4] < WRIST_SINGULAR,
+        near.wrist < WRIST_SINGULAR,
         "wrist 2 comes within 2 deg of lining up joints 4 and 6 (the wrist singularity)",
     )
     first(
-        solved.elbow[:, branch // 2] < ELBOW_SINGULAR,
+        near.elbow < ELBOW_SINGULAR,
         "the elbow comes within 2 deg of straight or folded (the elbow singularity)",
     )
     jumps = np.abs(steps).max(axis=1)

@@ -53,10 +53,12 @@ def register(sub: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan like a pick and write the PNG; exit 0. Nothing is sent to the robot but reads."""
+    import numpy as np
+
     from handeye_pick.cell.session import Cell
     from handeye_pick.cloud.files import read_cloud
-    from handeye_pick.geometry import compose
-    from handeye_pick.plot import Scene, cloud_to_base_m, render_scene
+    from handeye_pick.geometry import compose, invert
+    from handeye_pick.plot import Scene, arm_at, cloud_to_base_m, render_scene
     from handeye_pick.scene.layout import arm_not_checked, scene_boxes
 
     cell = Cell(args.config, progress=progress_from_args(args))
@@ -74,6 +76,13 @@ def run_plan(args: argparse.Namespace) -> int:
     if args.cloud is not None:
         cloud_base_m = cloud_to_base_m(read_cloud(args.cloud).xyz, plan.T_base_cam)
     inverted = ", inverted on load" if calibration.inverted else ""
+    # The arm at the flange now and at every target, from the model's IK: the plan does not
+    # read the controller's joints.
+    stops = [plan.T_base_flange] + [
+        compose(T, invert(plan.T_flange_tcp)) for T in plan.targets().values()
+    ]
+    model = config.robot.model
+    arm = arm_at(model, np.stack(stops)) if model is not None else ()
     scene = Scene(
         mode=f"plan: {calibration.mode.value}{inverted}, flange from {flange_source}",
         calibration_file=_relative_to_cwd(calibration.path),
@@ -86,6 +95,8 @@ def run_plan(args: argparse.Namespace) -> int:
         workspace_max_m=_mm_to_m(config.workspace.max_mm),
         cloud_base_m=cloud_base_m,
         obstacles=tuple(scene_boxes(config.scene)) if config.scene is not None else (),
+        arm=arm,
+        arm_source=f"drawn from our {model.name} IK (elbow up, wrist down)" if model else "",
     )
     render_scene(scene, args.plot)
     outside = cell.outside_workspace(plan)

@@ -23,7 +23,7 @@ Frames and units: poses ``T_base_*`` float64 4x4 in metres; joints radians; mess
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import fcl
 import numpy as np
@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from handeye_pick.arm.bound import bound_from, carried_bound, distances_at
 from handeye_pick.arm.kinematics import Joints, frames, solids_on
 from handeye_pick.arm.models import ArmModel
+from handeye_pick.arm.path import JointPath
 from handeye_pick.geometry import Transform, make_transform
 from handeye_pick.safety import CheckResult
 from handeye_pick.scene.arm_legs import Leg, LegRefused, legs, start_joints
@@ -46,6 +47,10 @@ MAX_SPLITS = 12
 """How often a step is halved before its pair counts as not proven clear: 1/4096 of a step."""
 OWN_LINKS = ("shoulder", "upper arm")
 """The arm's links the tool and the part are checked against (with its base)."""
+SWEEP_STRIDE = 4
+"""The sweep looks first at every this many looks of a joint path (``arm.path``'s steps): far
+from every obstacle those longer steps are proven already; inside a step they do not prove,
+every look of the path is added."""
 FLOOR_ONLY = "shoulder"
 """The link checked against the floor alone: it turns about the base, beside it."""
 
@@ -79,6 +84,16 @@ class _Failure:
     pair: int
     distance_m: float
     proven: bool  # False: the margins never proved the step, though no look was too close
+
+
+@dataclass(frozen=True)
+class _Screened:
+    """The pairs the coarse boxes leave near, their bounds (N - 1, P) for the steps between
+    the looks and their margins (N, P) at the looks (m)."""
+
+    pairs: _Pairs
+    bounds: NDArray[np.float64]
+    margins: NDArray[np.float64]
 
 
 class ArmCheck:
@@ -125,7 +140,8 @@ class ArmCheck:
 
     def _pairs(self, tool: list[Solid]) -> _Pairs:
         """Links (not the shoulder) against every scene obstacle, the shoulder against the
-        floor, each tool solid (and the part) against the base and ``OWN_LINKS``."""
+        floor, each tool solid (and the part) against the base and ``OWN_LINKS``: in the order
+        of ``tool``, so the pairs of a tool with the part last begin with those without it."""
         links = [link.name for link in self.model.links]
         scene = range(len(self.static) - 1)
         base = len(self.static) - 1
@@ -209,11 +225,18 @@ class ArmCheck:
         return geometry
 
     def _margins(
-        self, poses: NDArray[np.float64], pairs: _Pairs, need: NDArray[np.float64]
+        self,
+        poses: NDArray[np.float64],
+        pairs: _Pairs,
+        need: NDArray[np.float64],
+        lower: NDArray[np.float64] | None = None,
     ) -> NDArray[np.float64]:
-        """Each pair's margin (N, P) at every look: its lower bound less the clearance, the
-        exact distance less the clearance where the bound is below ``need`` (N, P)."""
-        margin = self._lower_bounds(poses, pairs) - self.clearance_m
+        """Each pair's margin (N, P) at every look: its lower bound (``lower`` where known)
+        less the clearance, the exact distance less the clearance where the bound is below
+        ``need`` (N, P)."""
+        if lower is None:
+            lower = self._lower_bounds(poses, pairs)
+        margin = lower - self.clearance_m
         for n, p in zip(*np.nonzero(margin < need + PROOF_TOLERANCE_M), strict=True):
             margin[n, p] = self._exact(poses, pairs, int(n), int(p)) - self.clearance_m
         return margin
@@ -263,18 +286,13 @@ class ArmCheck:
         result: NDArray[np.float64] = np.sqrt((gap * gap).sum(axis=1))
         return result
 
-    def _prove(
-        self,
-        leg: Leg,
-        pairs: _Pairs,
-        poses: NDArray[np.float64],
-        by_body: NDArray[np.float64],
-    ) -> CheckResult | tuple[float, str, str]:
-        """The refusal of ``leg`` at its first look too close, or at a step never proven;
-        else the smallest distance seen (m) and its pair's labels. ``poses``: every solid at
-        every look of the leg (``_place``; solids beyond ``pairs``' ignored), ``by_body``: the
-        solids' bounds of its steps (``_body_bounds``)."""
-        Q, s = leg.path.q, leg.path.s
+    def _screen(
+        self, pairs: _Pairs, poses: NDArray[np.float64], by_body: NDArray[np.float64]
+    ) -> _Screened | tuple[float, str, str]:
+        """The margins at every look of ``poses`` (``_place``; solids beyond ``pairs``'
+        ignored) of the pairs the coarse boxes do not prove clear, and their bounds for the
+        steps between the looks (``by_body``: the solids' bounds, ``_body_bounds``); or, where
+        the boxes prove every pair clear, the smallest box distance (m) and its pair's labels."""
         bodies = len(self._links) + len(pairs.tool)
         poses, by_body = poses[:, :bodies], by_body[:, :bodies]
         # Pairs whose boxes over the whole leg lie farther apart than any step can bring them
@@ -287,10 +305,27 @@ class ArmCheck:
             return float(coarse[p]) + self.clearance_m, *self._labels(pairs, p)
         pairs = _Pairs(pairs.tool, pairs.body[near], pairs.other[near], pairs.moving[near])
         bounds = _per_pair(by_body, pairs)
-        need = np.zeros((len(Q), len(pairs.body)))
+        need = np.zeros((len(poses), len(pairs.body)))
         need[:-1] = bounds
         need[1:] = np.maximum(need[1:], bounds)
-        m = self._margins(poses, pairs, need)
+        return _Screened(pairs, bounds, self._margins(poses, pairs, need))
+
+    def _prove(
+        self,
+        leg: Leg,
+        pairs: _Pairs,
+        poses: NDArray[np.float64],
+        by_body: NDArray[np.float64],
+    ) -> CheckResult | tuple[float, str, str]:
+        """The refusal of ``leg`` at its first look too close, or at a step never proven;
+        else the smallest distance seen (m) and its pair's labels. ``poses``: every solid at
+        every look of the leg (``_place``; solids beyond ``pairs``' ignored), ``by_body``: the
+        solids' bounds of its steps (``_body_bounds``)."""
+        Q, s = leg.path.q, leg.path.s
+        screened = self._screen(pairs, poses, by_body)
+        if not isinstance(screened, _Screened):
+            return screened
+        pairs, bounds, m = screened.pairs, screened.bounds, screened.margins
         n, p = divmod(int(np.argmin(m)), m.shape[1])
         closest = (float(m[n, p]) + self.clearance_m, *self._labels(pairs, p))
         if m[n, p] < PROOF_TOLERANCE_M:
@@ -348,6 +383,42 @@ class ArmCheck:
             )
         return CheckResult(ARM_CHECK, leg.move, False, detail)
 
+    def _sweep(
+        self,
+        leg: Leg,
+        looked: NDArray[np.intp],
+        pairs: _Pairs,
+        poses: NDArray[np.float64],
+        lower: NDArray[np.float64],
+        bounds: NDArray[np.float64],
+    ) -> CheckResult | tuple[float, str, str]:
+        """``_prove`` of ``leg`` from the looks ``looked`` (indices into its path) whose
+        ``poses``, pair distance ``lower`` bounds (``_lower_bounds``) and pair bounds of the
+        steps between them (``_per_pair``) are known: where the margins there prove every
+        step, the leg is clear; else every look inside a step they do not prove is added and
+        the leg proven from those (``_prove``, which halves a step where it must)."""
+        need = np.zeros(lower.shape)
+        need[:-1] = bounds
+        need[1:] = np.maximum(need[1:], bounds)
+        m = self._margins(poses, pairs, need, lower)
+        low: NDArray[np.bool_] = np.any(m < PROOF_TOLERANCE_M, axis=1)
+        open_steps = np.flatnonzero((m[:-1] + m[1:] < bounds).any(axis=1) | low[:-1] | low[1:])
+        if open_steps.size == 0:
+            n, p = divmod(int(np.argmin(m)), m.shape[1])
+            return float(m[n, p]) + self.clearance_m, *self._labels(pairs, p)
+        keep = np.zeros(len(leg.path.q), dtype=bool)
+        keep[looked] = True
+        for k in open_steps:
+            keep[looked[k] : looked[k + 1]] = True
+        fine = np.flatnonzero(keep)
+        path = leg.path
+        finer = replace(
+            leg, path=JointPath(path.what, path.q[fine], path.fraction[fine], path.s[fine])
+        )
+        F, placed = self._place(finer.path.q, pairs.tool)
+        bounds = self._body_bounds(F[:-1], placed[:-1], _turned(path.q, fine)[1:], pairs.tool)
+        return self._prove(finer, pairs, placed, bounds)
+
     def check(
         self,
         steps: Sequence[Step],
@@ -370,18 +441,31 @@ class ArmCheck:
         if not driven:
             return []
         held = self._pairs([*self._tool, part]) if part is not None else self._plain
-        # Every look of every leg placed, and every step bounded, as one batch.
-        Q = np.concatenate([leg.path.q for leg in driven])
+        # Every SWEEP_STRIDE-th look of every leg (and its last) placed, and every step
+        # between them bounded by the joints' turns through it, as one batch.
+        chosen = [_strided(len(leg.path.q)) for leg in driven]
+        Q = np.concatenate([leg.path.q[i] for leg, i in zip(driven, chosen, strict=True)])
+        turns = np.concatenate(
+            [_turned(leg.path.q, i) for leg, i in zip(driven, chosen, strict=True)]
+        )
         F, poses = self._place(Q, held.tool)
-        by_body = self._body_bounds(F[:-1], poses[:-1], np.diff(Q, axis=0), held.tool)
+        by_body = self._body_bounds(F[:-1], poses[:-1], turns[1:], held.tool)
+        lower = self._lower_bounds(poses, held)
+        bounds = _per_pair(by_body, held)
         closest: dict[str, tuple[float, str, str]] = {}
         start = 0
-        for leg in driven:
-            n = len(leg.path.q)
+        for leg, looked in zip(driven, chosen, strict=True):
+            n = len(looked)
             pairs = held if leg.held else self._plain
+            P = len(pairs.body)  # the part's pairs come last in ``held``
             # The steps of this leg only: not the one from its last look to the next leg's first.
-            outcome = self._prove(
-                leg, pairs, poses[start : start + n], by_body[start : start + n - 1]
+            outcome = self._sweep(
+                leg,
+                looked,
+                pairs,
+                poses[start : start + n],
+                lower[start : start + n, :P],
+                bounds[start : start + n - 1, :P],
             )
             start += n
             if isinstance(outcome, CheckResult):
@@ -406,4 +490,21 @@ def _per_pair(by_body: NDArray[np.float64], pairs: _Pairs) -> NDArray[np.float64
     out = by_body[:, pairs.body]
     out[:, pairs.moving] += by_body[:, pairs.other[pairs.moving]]
     result: NDArray[np.float64] = out
+    return result
+
+
+def _strided(looks: int) -> NDArray[np.intp]:
+    """Every ``SWEEP_STRIDE``-th of ``looks`` looks of a path, and its last."""
+    every = np.arange(0, looks, SWEEP_STRIDE)
+    result: NDArray[np.intp] = every if every[-1] == looks - 1 else np.append(every, looks - 1)
+    return result
+
+
+def _turned(q: Joints, looked: NDArray[np.intp]) -> Joints:
+    """How far each joint turns in all (rad, the sum of its turns either way over the path's
+    looks ``q`` (n, 6)) from each of the looks ``looked`` to the next: (len(looked), 6), the
+    first row zero."""
+    travelled = np.concatenate([np.zeros((1, 6)), np.cumsum(np.abs(np.diff(q, axis=0)), axis=0)])
+    at = travelled[looked]
+    result: Joints = np.concatenate([np.zeros((1, 6)), np.diff(at, axis=0)])
     return result

@@ -22,7 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from handeye_pick.arm.ik import branches, wrap
 from handeye_pick.arm.kinematics import Joints, tcp_poses
 from handeye_pick.arm.models import ArmModel
-from handeye_pick.arm.path import JointPath, JointPathRefused, follow, joint_move, looks
+from handeye_pick.arm.path import JointPath, JointPathRefused, follow_looks, joint_move, looks
 from handeye_pick.geometry import Transform, invert
 from handeye_pick.scene.path import Piece, describe_move, pieces
 from handeye_pick.steps import Grip, JointMove, Step
@@ -122,13 +122,15 @@ def legs(
         nonlocal here_q
         moves = list(built) if reuse and built is not None else pieces(segment, here_T)
         seen_all = looks(model, T_flange_tcp, moves, here_q)
-        for piece, seen in zip(moves, seen_all, strict=True):
-            try:
-                path = follow(model, T_flange_tcp, piece, here_q, seen=seen)
-            except JointPathRefused as refused:
-                raise LegRefused(piece.move, str(refused)) from None
+        try:
+            paths = follow_looks(model, T_flange_tcp, moves, seen_all, here_q)
+        except JointPathRefused as refused:
+            move = next(piece.move for piece in moves if piece.what == refused.what)
+            raise LegRefused(move, str(refused)) from None
+        for piece, path in zip(moves, paths, strict=True):
             out.append(Leg(piece.move, piece.what, path, piece.held, piece))
-            here_q = path.q[-1]
+        if paths:
+            here_q = paths[-1].q[-1]
         segment.clear()
 
     for step in steps:
