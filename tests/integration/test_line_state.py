@@ -50,7 +50,7 @@ def test_a_ready_cell_is_not_executing_in_processing_mode(cell_line: tuple[Line,
         OperationMode.PROCESSING, "Processing", "NotExecuting",
     )  # fmt: skip
     assert view.ready
-    assert view.heartbeat_s >= 0
+    assert 0 <= view.heartbeat_s < 600  # whole seconds since the line started, not a clock
     assert line.status_fields() == {"held": False, "held_by": None, "line_state": "NotExecuting"}
     assert line.held_s() == 0.0
 
@@ -71,12 +71,12 @@ def test_a_cycle_stop_holds_for_every_door_until_a_release(cell_line: tuple[Line
     # A motion request from the vision program is answered held and never runs.
     reply = line.runner.handle(json.dumps({"id": "m", "op": "move", "pose": "home"}))
     assert (reply["ok"], reply["status"], reply["held_by"]) == (False, "held", "opcua alice")
-    assert line.held_s() > 0.0
+    assert 0.0 < line.held_s() < 600.0  # seconds held so far, not a clock reading
     released = line.release("input DI4")
     assert (released.ok, released.text) == (True, "released (held by opcua alice)")
     assert (line.held(), line.view().ready) == (None, True)
     spent = line.held_s()
-    assert spent > 0.0
+    assert 0.0 < spent < 600.0
     assert line.held_s() == spent  # a released hold no longer counts
     assert line.release("opcua bob").text == "released: not held"
     records = line_records(line)
@@ -185,14 +185,16 @@ def test_a_stop_while_a_request_runs_says_which(cell_line: tuple[Line, Any]) -> 
     def at_step(step: str) -> None:
         if not seen:
             seen.append(line.view())
+            seen.append(line.cycle_stop("opcua alice"))
             seen.append(line.stop("input DI5"))
 
     line.cell.watch_steps(at_step)
     reply = line.runner.handle(json.dumps({"id": "m9", "op": "move", "pose": "home"}))
-    view, stopped = seen
+    view, held, stopped = seen
     assert (view.state, view.request["id"], view.request["op"]) == (
         ItemState.EXECUTING, "m9", "move",
     )  # fmt: skip
+    assert held.text == "holding after request m9 (move)"
     assert stopped.text == "stopped while request m9 ran move"
     assert line.cell.halted == "stopped by input DI5 while request m9 ran move"
     assert reply["ok"] is False
@@ -202,3 +204,50 @@ def test_a_closed_session_is_not_available(cell_line: tuple[Line, Any]) -> None:
     line, _ = cell_line
     line.cell.close()
     assert line.view().state is ItemState.NOT_AVAILABLE
+
+
+def test_a_resume_request_running_is_not_executing(cell_line: tuple[Line, Any]) -> None:
+    """A resume runs as a request (it reconnects) but moves nothing: the line never reads it
+    as Executing."""
+    line, _ = cell_line
+    views: list[Any] = []
+    resume = threading.Thread(
+        target=lambda: line.runner.handle(json.dumps({"id": "r", "op": "resume"}))
+    )
+    resume.start()
+    while resume.is_alive():
+        view = line.view()
+        if view.request is not None:
+            views.append(view)
+        resume.join(0.002)
+    assert views, "the resume ended before the line was read while it ran"
+    assert {v.request["op"] for v in views} == {"resume"}
+    # NotAvailable while the link is reopened, NotExecuting once it is up; never Executing.
+    assert {v.state for v in views} <= {ItemState.NOT_AVAILABLE, ItemState.NOT_EXECUTING}
+
+
+def test_a_resume_whose_audit_record_cannot_be_written_fails_saying_why(
+    cell_line: tuple[Line, Any],
+) -> None:
+    line, _ = cell_line
+    line.stop("opcua alice")
+    audit = line.counters.path
+    audit.unlink()
+    audit.mkdir()  # the audit file is gone and cannot be made again
+    line.resume("opcua alice", 0)
+    results: list[Any] = []
+    line._resumes.put_nowait(("opcua bob", _Recorder(results)))  # type: ignore[arg-type]
+    line.run_pending()
+    (result,) = results
+    assert result.ok is False
+    assert result.text.startswith("audit: cannot append to ")
+
+
+class _Recorder:
+    """Stands for the Future a door waits on: keeps the result it is given."""
+
+    def __init__(self, results: list[Any]) -> None:
+        self.results = results
+
+    def set_result(self, result: Any) -> None:
+        self.results.append(result)

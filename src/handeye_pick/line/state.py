@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 from handeye_pick.audit import AuditLog
 from handeye_pick.cell.session import Cell
-from handeye_pick.errors import HandEyePickError, InputError, RobotError, SafetyRefusal, Status
+from handeye_pick.errors import HandEyePickError, Status
 from handeye_pick.line.counters import AuditCounters, Counters
 from handeye_pick.runner import Runner
 
@@ -226,10 +226,8 @@ class Line:
     def _resume_now(self, by: str) -> CommandResult:
         try:
             self.cell.resume()
-        except (SafetyRefusal, RobotError, InputError) as exc:
+        except HandEyePickError as exc:  # not ready, no link, an audit file gone: said, not raised
             result = CommandResult(False, str(exc))
-        except HandEyePickError as exc:  # a cell in use, an audit file gone: said, not raised
-            result = CommandResult(False, f"{type(exc).__name__}: {exc}")
         else:
             result = CommandResult(True, "resumed: the cell is ready")
         return self._audited("resume", by, result)
