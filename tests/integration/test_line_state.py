@@ -251,3 +251,68 @@ class _Recorder:
 
     def set_result(self, result: Any) -> None:
         self.results.append(result)
+
+
+IO = (
+    "  io:\n    inputs: {cycle_stop: 4, stop: 5, resume: 6}\n"
+    "    outputs: {ready: 4, executing: 5, held: 6, halted: 7, heartbeat: 3}\n"
+)
+
+
+def _looks_until(handshake: Any, done: Any) -> None:
+    """Look (``step``) until ``done()``: the inputs reach the cell with the next RTDE sample."""
+    for _ in range(400):
+        handshake.step()
+        if done():
+            return
+        threading.Event().wait(0.005)
+    raise AssertionError("the handshake never saw the input")
+
+
+def test_the_wired_handshake_turns_input_edges_into_commands_and_shows_the_state(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    """``WiredHandshake.step`` on the cell's own thread: DI4 held high holds the cell, low
+    releases it; a DI5 rising edge stops it; a DI6 rising edge hands a resume over; DO4-DO7
+    show ready, executing, held, halted; the inputs and outputs are the simulator's."""
+    from handeye_pick.line.io import WiredHandshake
+
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
+        runner = Runner(cell)
+        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
+        runner.line = line
+        io = cell.config.line.io
+        assert io is not None
+        handshake = WiredHandshake(line, io)
+
+        def outputs() -> dict[int, bool]:
+            bits = ctl.snapshot().standard_digital_out
+            return {bit: bool(bits >> bit & 1) for bit in (4, 5, 6, 7)}
+
+        _looks_until(handshake, lambda: outputs() == {4: True, 5: False, 6: False, 7: False})
+        ctl.set_inputs({4: True})
+        _looks_until(handshake, lambda: line.held() is not None)
+        assert line.held() == "input DI4 (cycle stop)"
+        _looks_until(handshake, lambda: outputs() == {4: False, 5: False, 6: True, 7: False})
+        handshake.step()  # the level stays high: no second command
+        ctl.set_inputs({4: False})
+        _looks_until(handshake, lambda: line.held() is None)
+        ctl.set_inputs({5: True})
+        _looks_until(handshake, lambda: cell.halted is not None)
+        assert cell.halted == "stopped by input DI5 (stop)"
+        _looks_until(handshake, lambda: outputs() == {4: False, 5: False, 6: False, 7: True})
+        ctl.set_inputs({5: False, 6: True})
+        _looks_until(handshake, lambda: not line._resumes.empty())
+        runner.idle()  # the cell's thread takes the resume between requests
+        assert cell.halted is None
+        _looks_until(handshake, lambda: outputs() == {4: True, 5: False, 6: False, 7: False})
+        handshake.close()
+        assert outputs() == {4: False, 5: False, 6: False, 7: False}
+    commands = [(r["command"], r["by"]) for r in line_records(line)]
+    assert commands == [
+        ("cycle-stop", "input DI4 (cycle stop)"),
+        ("release", "input DI4 (cycle stop)"),
+        ("stop", "input DI5 (stop)"),
+        ("resume", "input DI6 (resume)"),
+    ]

@@ -79,7 +79,8 @@ class WiredHandshake:
         """Stop looking and switch every output off (before the session closes), so no PLC
         sees ``ready`` from a cell that is gone."""
         self._stopping.set()
-        self._thread.join(timeout=2.0)
+        if self._thread.is_alive():  # close() before start(): nothing to wait for
+            self._thread.join(timeout=2.0)
         cell = self.line.cell
         try:
             arm = cell.arm if cell.connected else None
