@@ -316,3 +316,81 @@ def test_the_wired_handshake_turns_input_edges_into_commands_and_shows_the_state
         ("stop", "input DI5 (stop)"),
         ("resume", "input DI6 (resume)"),
     ]
+
+
+def _view(heartbeat_s: int) -> Any:
+    from handeye_pick.line.state import LineView
+
+    return LineView(ItemState.NOT_EXECUTING, False, None, None, OperationMode.PROCESSING, None,
+                    heartbeat_s)  # fmt: skip
+
+
+def test_the_heartbeat_output_toggles_every_second() -> None:
+    from handeye_pick.line.io import outputs_for
+
+    assert [outputs_for(_view(s))["heartbeat"] for s in range(4)] == [True, False, True, False]
+
+
+def test_the_handshake_thread_looks_by_itself_and_writes_only_configured_outputs(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    """Started as ``run`` starts it (no heartbeat output configured): it shows ready on DO4 by
+    itself, holds on DI4, and ``close`` switches its outputs off."""
+    from handeye_pick.line.io import WiredHandshake
+
+    io = "  io:\n    inputs: {cycle_stop: 4}\n    outputs: {ready: 4, held: 6}\n"
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with Cell(loop_config(tmp_path, ctl.host, line=io)) as cell:
+        runner = Runner(cell)
+        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
+        runner.line = line
+        assert cell.config.line.io is not None
+        handshake = WiredHandshake(line, cell.config.line.io).start()
+
+        def wait_for(done: Any) -> None:
+            for _ in range(1000):
+                if done():
+                    return
+                threading.Event().wait(0.005)
+            raise AssertionError("the handshake thread never got there")
+
+        def out(bit: int) -> bool:
+            return bool(ctl.snapshot().standard_digital_out >> bit & 1)
+
+        wait_for(lambda: out(4))
+        ctl.set_inputs({4: True})
+        wait_for(lambda: out(6) and not out(4))
+        assert line.held() == "input DI4 (cycle stop)"
+        handshake.close()
+        assert (out(4), out(6)) == (False, False)
+
+
+def test_a_wired_resume_reaches_a_cell_whose_link_is_closed(
+    sim_controller: SimFactory, tmp_path: Path
+) -> None:
+    """A resume the controller refused (a protective stop) leaves the session closed: the
+    handshake then reads the inputs from outside, so DI6's edge still hands a resume over once
+    the stop is cleared."""
+    from handeye_pick.line.io import WiredHandshake
+
+    ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
+    with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
+        runner = Runner(cell)
+        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
+        runner.line = line
+        assert cell.config.line.io is not None
+        handshake = WiredHandshake(line, cell.config.line.io)
+        ctl.inject("protective-stop")
+        line.stop("opcua alice")
+        line.resume("opcua alice", 0)
+        line.run_pending()
+        assert (cell.connected, line.view().state) == (False, ItemState.NOT_AVAILABLE)
+        _unlock_protective_stop(ctl.host)
+        handshake.step()  # reads DI6 low from outside
+        ctl.set_inputs({6: True})
+        _looks_until(handshake, lambda: not line._resumes.empty())
+        runner.idle()
+        assert (cell.connected, cell.halted) == (True, None), line_records(line)[-1]["message"]
+    assert [r["by"] for r in line_records(line) if r["command"] == "resume"][-1] == (
+        "input DI6 (resume)"
+    )
