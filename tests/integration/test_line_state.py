@@ -17,7 +17,7 @@ import pytest
 from handeye_pick.cell.session import Cell
 from handeye_pick.errors import Status
 from handeye_pick.line.counters import AuditCounters
-from handeye_pick.line.state import ItemState, Line, OperationMode
+from handeye_pick.line.state import CommandResult, ItemState, Line, OperationMode
 from handeye_pick.runner import Runner
 from tests.integration.test_pick_cli import TCP_OFFSET
 from tests.integration.test_run_loop import SimFactory, _unlock_protective_stop, loop_config
@@ -145,7 +145,7 @@ def test_a_resume_during_a_protective_stop_is_refused_saying_why(
     line, ctl = cell_line
     ctl.inject("protective-stop")
     line.stop("opcua alice")
-    assert line.resume("opcua alice", 0).text == "handed to the cell"
+    assert line.resume("opcua alice", 0) == CommandResult(True, "handed to the cell")
     line.run_pending()
     records = line_records(line)
     assert (records[-1]["command"], records[-1]["ok"]) == ("resume", False)
@@ -227,7 +227,7 @@ def test_a_resume_request_running_is_not_executing(cell_line: tuple[Line, Any]) 
 
 
 def test_a_resume_whose_audit_record_cannot_be_written_fails_saying_why(
-    cell_line: tuple[Line, Any],
+    cell_line: tuple[Line, Any], caplog: pytest.LogCaptureFixture
 ) -> None:
     line, _ = cell_line
     line.stop("opcua alice")
@@ -241,6 +241,9 @@ def test_a_resume_whose_audit_record_cannot_be_written_fails_saying_why(
     (result,) = results
     assert result.ok is False
     assert result.text.startswith("audit: cannot append to ")
+    # The command took effect; its own record could not be written either: said in the log.
+    assert f"line resume by opcua bob: {result.text}" in caplog.messages
+    assert "line resume by opcua bob: audit: cannot append" in "\n".join(caplog.messages)
 
 
 class _Recorder:
