@@ -28,10 +28,15 @@ def cell_line(sim_controller: SimFactory, tmp_path: Path) -> Iterator[tuple[Line
     """A connected cell, its runner and its line state, as ``run`` makes them."""
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host)) as cell:
-        runner = Runner(cell)
-        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
-        runner.line = line
-        yield line, ctl
+        yield line_of(cell), ctl
+
+
+def line_of(cell: Cell) -> Line:
+    """The line state of ``cell`` on a new runner, wired as ``run`` wires them."""
+    runner = Runner(cell)
+    line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
+    runner.line = line
+    return line
 
 
 def line_records(line: Line) -> list[dict[str, Any]]:
@@ -282,9 +287,8 @@ def test_the_wired_handshake_turns_input_edges_into_commands_and_shows_the_state
 
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
-        runner = Runner(cell)
-        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
-        runner.line = line
+        line = line_of(cell)
+        runner = line.runner
         io = cell.config.line.io
         assert io is not None
         handshake = WiredHandshake(line, io)
@@ -344,9 +348,7 @@ def test_the_handshake_thread_looks_by_itself_and_writes_only_configured_outputs
     io = "  io:\n    inputs: {cycle_stop: 4}\n    outputs: {ready: 4, held: 6}\n"
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=io)) as cell:
-        runner = Runner(cell)
-        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
-        runner.line = line
+        line = line_of(cell)
         assert cell.config.line.io is not None
         handshake = WiredHandshake(line, cell.config.line.io).start()
 
@@ -378,9 +380,8 @@ def test_a_wired_resume_reaches_a_cell_whose_link_is_closed(
 
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
-        runner = Runner(cell)
-        line = Line(cell, runner, AuditCounters.from_now(cell.config.audit.file))
-        runner.line = line
+        line = line_of(cell)
+        runner = line.runner
         assert cell.config.line.io is not None
         handshake = WiredHandshake(line, cell.config.line.io)
         ctl.inject("protective-stop")
