@@ -17,7 +17,8 @@ import pytest
 from handeye_pick.cell.session import Cell
 from handeye_pick.errors import Status
 from handeye_pick.line.counters import AuditCounters
-from handeye_pick.line.state import CommandResult, ItemState, Line, OperationMode
+from handeye_pick.line.io import WiredHandshake, outputs_for
+from handeye_pick.line.state import CommandResult, ItemState, Line, LineView, OperationMode
 from handeye_pick.runner import Runner
 from tests.integration.test_pick_cli import TCP_OFFSET
 from tests.integration.test_run_loop import SimFactory, _unlock_protective_stop, loop_config
@@ -239,26 +240,18 @@ def test_a_resume_whose_audit_record_cannot_be_written_fails_saying_why(
     audit = line.counters.path
     audit.unlink()
     audit.mkdir()  # the audit file is gone and cannot be made again
-    line.resume("opcua alice", 0)
     results: list[Any] = []
-    line._resumes.put_nowait(("opcua bob", _Recorder(results)))  # type: ignore[arg-type]
-    line.run_pending()
+    door = threading.Thread(target=lambda: results.append(line.resume("opcua bob", 30.0)))
+    door.start()
+    while door.is_alive():
+        line.runner.idle()  # the cell's thread between requests
+        door.join(0.01)
     (result,) = results
     assert result.ok is False
     assert result.text.startswith("audit: cannot append to ")
     # The command took effect; its own record could not be written either: said in the log.
     assert f"line resume by opcua bob: {result.text}" in caplog.messages
     assert "line resume by opcua bob: audit: cannot append" in "\n".join(caplog.messages)
-
-
-class _Recorder:
-    """Stands for the Future a door waits on: keeps the result it is given."""
-
-    def __init__(self, results: list[Any]) -> None:
-        self.results = results
-
-    def set_result(self, result: Any) -> None:
-        self.results.append(result)
 
 
 IO = (
@@ -283,8 +276,6 @@ def test_the_wired_handshake_turns_input_edges_into_commands_and_shows_the_state
     """``WiredHandshake.step`` on the cell's own thread: DI4 held high holds the cell, low
     releases it; a DI5 rising edge stops it; a DI6 rising edge hands a resume over; DO4-DO7
     show ready, executing, held, halted; the inputs and outputs are the simulator's."""
-    from handeye_pick.line.io import WiredHandshake
-
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
         line = line_of(cell)
@@ -325,16 +316,12 @@ def test_the_wired_handshake_turns_input_edges_into_commands_and_shows_the_state
     ]
 
 
-def _view(heartbeat_s: int) -> Any:
-    from handeye_pick.line.state import LineView
-
+def _view(heartbeat_s: int) -> LineView:
     return LineView(ItemState.NOT_EXECUTING, False, None, None, OperationMode.PROCESSING, None,
                     heartbeat_s)  # fmt: skip
 
 
 def test_the_heartbeat_output_toggles_every_second() -> None:
-    from handeye_pick.line.io import outputs_for
-
     assert [outputs_for(_view(s))["heartbeat"] for s in range(4)] == [True, False, True, False]
 
 
@@ -343,8 +330,6 @@ def test_the_handshake_thread_looks_by_itself_and_writes_only_configured_outputs
 ) -> None:
     """Started as ``run`` starts it (no heartbeat output configured): it shows ready on DO4 by
     itself, holds on DI4, and ``close`` switches its outputs off."""
-    from handeye_pick.line.io import WiredHandshake
-
     io = "  io:\n    inputs: {cycle_stop: 4}\n    outputs: {ready: 4, held: 6}\n"
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=io)) as cell:
@@ -376,8 +361,6 @@ def test_a_wired_resume_reaches_a_cell_whose_link_is_closed(
     """A resume the controller refused (a protective stop) leaves the session closed: the
     handshake then reads the inputs from outside, so DI6's edge still hands a resume over once
     the stop is cleared."""
-    from handeye_pick.line.io import WiredHandshake
-
     ctl = sim_controller(tcp_offset=TCP_OFFSET, instant=True)
     with Cell(loop_config(tmp_path, ctl.host, line=IO)) as cell:
         line = line_of(cell)
