@@ -14,9 +14,10 @@ above its floor), sends every cube as a candidate with its orientation, size and
 cube looks the same turned 90 degrees about its vertical), and takes the one picked out of the
 scene. Against a wall the fingers fit along it, but the last wrist would come into the wall's
 top: the tool-only check would pass those grasps, the arm's check refuses them (or takes a
-tilted one). Then mocks/contact_check.py replays the driven TCP poses with the tool's shape and
-the driven joints with the arm's links (the simulator's own kinematics, the package's link
-sizes as data) against the bin and the fixture: zero contacts. Prints one line per cycle, the
+tilted one). Then mocks/contact_check.py replays the driven TCP poses with the tool's shape, the
+cube in the fingers while the gripper's output held them closed (where the simulated scene had
+it), and the driven joints with the arm's links (the simulator's own kinematics, the package's
+link sizes as data) against the bin and the fixture: zero contacts. Prints one line per cycle, the
 refusals, how many grasps the tool-only check would have passed that the arm's refused, the
 contact count and a summary; exits 0 when every cube was picked or refused with its reason and
 nothing touched the bin or the fixture, 1 otherwise, 130 after a Ctrl-C (`run` stops the arm;
@@ -147,6 +148,15 @@ def link_solids(config: Path) -> list[dict[str, object]]:
     ]
 
 
+def cube_parts(bin_: Bin) -> list[dict[str, object]]:
+    """The cubes where they lie before the loop, as data for the independent replay (which
+    puts the one the fingers close on in the gripper)."""
+    return [
+        {"name": name, "size_m": list(box.size_m), "T_base_part": box.T_base_box.tolist()}
+        for name, box in build_scene(bin_).boxes.items() if name in CUBES
+    ]
+
+
 def arm_refusals(reasons: list[str]) -> int:
     """How many of a pick's refused grasps only the arm's check refused: the arm is swept once
     the tool's sweep passed, so each ``arm collision`` is a grasp the tool-only check passed."""
@@ -219,7 +229,8 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
             except RuntimeError as exc:  # no reply, or not the one asked for
                 problems.append(str(exc))
         status = run.close()
-        contacts = count_contacts(cell.config, controller.motions, link_solids(cell.config))
+        contacts = count_contacts(cell.config, controller.motions, link_solids(cell.config),
+                                  cube_parts(bin_))
     if status != 0:
         problems.append(f"handeye-pick run exited with status {status}")
     left = sorted(set(CUBES) - set(picked))
@@ -230,9 +241,10 @@ def bin_loop(cell: Cell, bin_: Bin, speed_factor: float) -> int:
     print(f"{arm_refused} grasps the tool-only check would have passed were refused by the "
           "arm's check (a link in the way)")
     print(f"contact check: {contacts.line()}")
-    if contacts.contacts or contacts.link_contacts or contacts.samples == 0:
-        problems.append("the tool or the arm touched the scene" if contacts.samples
-                        else "nothing replayed")
+    if contacts.touched or contacts.samples == 0 or contacts.carried == 0 < len(picked):
+        problems.append("the tool, the arm or the part touched the scene" if contacts.touched
+                        else "nothing replayed" if contacts.samples == 0
+                        else "no cube replayed in the gripper")
     for problem in problems:
         print(f"FAILED {problem}", file=sys.stderr)
     verdict = "every check passed" if not problems else f"{len(problems)} checks FAILED"

@@ -101,6 +101,9 @@ class Controller:
         # (trace_tcp only)
         self._trace: dict[int, list[list[float]]] | None = {} if options.trace_tcp else None
         self._q_trace: dict[int, list[list[float]]] = {}
+        # The digital outputs (standard | configurable << 8 | tool << 16) at each traced
+        # motion's first moving cycle: whether a digital gripper held its fingers closed.
+        self._out_trace: dict[int, int] = {}
         self._faults = [parse_fault(spec) for spec in options.inject]
         # The state the control loop owns: modes, program, outputs as last written, one-shots.
         self._script: ControlScript | PendantProgram | None = None
@@ -566,6 +569,7 @@ class Controller:
             if self._trace is not None:
                 self._trace.setdefault(motion.index, []).append(self.arm.tcp_pose.tolist())
                 self._q_trace.setdefault(motion.index, []).append(self.arm.q.tolist())
+                self._out_trace.setdefault(motion.index, self._digital_outputs())
         self.gripper.advance(dt_s)
         self._record_ended_motions()
         self._publish()
@@ -580,7 +584,8 @@ class Controller:
                 **({} if motion.path is None else {"reached_t": list(motion.reached_s)}),
                 **({} if self._trace is None
                    else {"tcp_trace": self._trace.pop(motion.index, []),
-                         "q_trace": self._q_trace.pop(motion.index, [])}),
+                         "q_trace": self._q_trace.pop(motion.index, []),
+                         "digital_out": self._out_trace.pop(motion.index, 0)}),
             })
         self.arm.ended.clear()
 
@@ -590,6 +595,10 @@ class Controller:
             self._faults.remove(fault)
             self._apply(fault)
 
+    def _digital_outputs(self) -> int:
+        """Every digital output as one word: standard 0-7, configurable 8-15, tool 16-17."""
+        return self._standard_do | self._configurable_do << 8 | self._tool_do << 16
+
     def _digital_input_bits(self) -> int:
         """actual_digital_input_bits: the inputs a PLC drives (set_inputs), and the feedback
         input, if configured, which reads true while its gripper output is on and the scripted
@@ -597,7 +606,7 @@ class Controller:
         if self._feedback is None:
             return self._plc_inputs
         output_bit, input_bit = self._feedback
-        outputs = self._standard_do | self._configurable_do << 8 | self._tool_do << 16
+        outputs = self._digital_outputs()
         sensed = bool(outputs >> output_bit & 1) and self.gripper.part_width_mm is not None
         return self._plc_inputs | int(sensed) << input_bit
 
